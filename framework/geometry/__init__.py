@@ -1,0 +1,1 @@
+"""Geometry: input traces, Bézier conversion, distances."""

@@ -1,0 +1,86 @@
+"""Input traces: polylines in canvas pixels (origin top-left, y down)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inkmotion.errors import InputError
+
+#: readers refuse inputs with more points than this (all strokes together)
+MAX_POINTS = 200_000
+
+
+@dataclass
+class Traces:
+    """A drawing as polylines.
+
+    ``strokes`` holds one float64 array per pen-down stroke, each (k, 2) or (k, 3) where
+    the third column is the stroke radius in the same units. ``source`` names the input
+    for error messages. Readers return traces in their own units; :meth:`fit_to_canvas`
+    maps them into a canvas whose longer side is ``size`` px.
+    """
+
+    strokes: list[np.ndarray]
+    source: str = "<traces>"
+    width: float | None = None  # canvas size once fitted
+    height: float | None = None
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def n_points(self) -> int:
+        return sum(len(s) for s in self.strokes)
+
+    def validated(self) -> Traces:
+        """Drop strokes of fewer than 2 distinct points; refuse empty, NaN or huge inputs."""
+        if self.n_points > MAX_POINTS:
+            raise InputError(
+                f"{self.source}: {self.n_points} points is more than the limit of {MAX_POINTS}; "
+                "simplify the drawing or split it into several inputs."
+            )
+        kept = []
+        for s in self.strokes:
+            s = np.asarray(s, dtype=np.float64)
+            if s.ndim != 2 or s.shape[1] not in (2, 3):
+                raise InputError(f"{self.source}: a stroke is not a list of 2-D or 3-D points.")
+            if not np.all(np.isfinite(s)):
+                raise InputError(
+                    f"{self.source}: a stroke holds NaN or infinite coordinates; fix or remove it."
+                )
+            # remove consecutive duplicates
+            keep = np.ones(len(s), dtype=bool)
+            keep[1:] = np.any(np.abs(np.diff(s[:, :2], axis=0)) > 1e-12, axis=1)
+            s = s[keep]
+            if len(s) >= 2:
+                kept.append(s)
+        if not kept:
+            raise InputError(
+                f"{self.source}: no stroke has two distinct points, so there is nothing to draw; "
+                "check that the file holds a drawing."
+            )
+        lo = np.min([s[:, :2].min(axis=0) for s in kept], axis=0)
+        hi = np.max([s[:, :2].max(axis=0) for s in kept], axis=0)
+        if np.max(hi - lo) <= 1e-12:
+            raise InputError(f"{self.source}: all points are equal, so there is nothing to draw.")
+        return Traces(kept, self.source, self.width, self.height, dict(self.meta))
+
+    def fit_to_canvas(self, size: float, margin: float = 0.08) -> Traces:
+        """Scale uniformly (aspect kept) so the bounding box fills a canvas of longer side
+        ``size`` px with ``margin`` (fraction of size) on each side. Radii scale too."""
+        t = self.validated()
+        lo = np.min([s[:, :2].min(axis=0) for s in t.strokes], axis=0)
+        hi = np.max([s[:, :2].max(axis=0) for s in t.strokes], axis=0)
+        extent = hi - lo
+        inner = size * (1.0 - 2.0 * margin)
+        scale = inner / float(np.max(extent))
+        canvas = np.maximum(np.ceil(extent * scale + 2.0 * margin * size), 8.0)
+        offset = (canvas - extent * scale) / 2.0
+        strokes = []
+        for s in t.strokes:
+            out = s.copy()
+            out[:, :2] = (s[:, :2] - lo) * scale + offset
+            if s.shape[1] == 3:
+                out[:, 2] = s[:, 2] * scale
+            strokes.append(out)
+        return Traces(strokes, t.source, float(canvas[0]), float(canvas[1]), dict(t.meta))

@@ -1,0 +1,58 @@
+"""Hook specifications: one hook per plugin kind.
+
+Each hook returns a list of plugin objects of that kind. A plugin module (built-in or
+third-party) implements one or more of these hooks and is registered through the
+``inkmotion`` entry-point group; pluggy verifies the implementation's signature
+against the spec at registration time.
+
+The objects returned follow the protocols in :mod:`inkmotion.plugin_host.protocols`.
+"""
+
+from __future__ import annotations
+
+import pluggy
+
+PROJECT = "inkmotion"
+hookspec = pluggy.HookspecMarker(PROJECT)
+hookimpl = pluggy.HookimplMarker(PROJECT)
+
+
+@hookspec
+def inkmotion_readers() -> list:
+    """Readers: parse an input (file path or ``scheme:value`` string) into traces."""
+
+
+@hookspec
+def inkmotion_initialisers() -> list:
+    """Initialisers: traces (or an image / caption) -> initial motor plans."""
+
+
+@hookspec
+def inkmotion_image_losses() -> list:
+    """Image losses: (rendered image, target) -> scalar tensor."""
+
+
+@hookspec
+def inkmotion_renderers() -> list:
+    """Renderers: Bézier segments + widths -> differentiable coverage image."""
+
+
+@hookspec
+def inkmotion_saliency() -> list:
+    """Saliency estimators: image -> [0, 1] map."""
+
+
+@hookspec
+def inkmotion_robot_backends() -> list:
+    """Robot backends: timed Cartesian plan -> execution or export."""
+
+
+#: plugin kind (as users name it) -> the hook that provides plugins of that kind
+KIND_HOOKS: dict[str, str] = {
+    "reader": "inkmotion_readers",
+    "initialiser": "inkmotion_initialisers",
+    "image-loss": "inkmotion_image_losses",
+    "renderer": "inkmotion_renderers",
+    "saliency": "inkmotion_saliency",
+    "robot-backend": "inkmotion_robot_backends",
+}
