@@ -11,7 +11,8 @@ Public API (kept small)::
 
 from inkmotion.geometry.bezier import bezier_segments
 from inkmotion.plugin_host import plugin
-from inkmotion.sigma_lognormal import Drawing, MotorPlan, kinematics
+from inkmotion.sigma_lognormal import Drawing, MotorPlan
+from inkmotion.sigma_lognormal.kinematics import kinematics
 
 __version__ = "0.1.0"
 

@@ -14,7 +14,6 @@ from importlib.metadata import entry_points
 from typing import Any
 
 import pluggy
-
 from inkmotion.errors import PluginError
 from inkmotion.plugin_host import hookspecs
 from inkmotion.plugin_host.hookspecs import KIND_HOOKS, PROJECT
@@ -51,9 +50,8 @@ class PluginHost:
                 module = ep.load()
                 self.register(module, name=ep.name, origin=origin)
             except Exception as exc:  # a broken plugin must not take the host down
-                self.broken.append(
-                    PluginInfo("?", ep.name, origin, "failed to load", f"{type(exc).__name__}: {exc}")
-                )
+                error = f"{type(exc).__name__}: {exc}"
+                self.broken.append(PluginInfo("?", ep.name, origin, "failed to load", error))
         self.pm.check_pending()
 
     def register(self, module: Any, name: str | None = None, origin: str = "local") -> None:
@@ -65,7 +63,7 @@ class PluginHost:
         self._origins[id(module)] = origin
         self.plugins.cache_clear()
 
-    @functools.lru_cache(maxsize=None)  # noqa: B019 - one host per process
+    @functools.cache  # noqa: B019 - one host per process
     def plugins(self, kind: str) -> dict[str, Any]:
         """All plugin objects of ``kind``, by name."""
         if kind not in KIND_HOOKS:
@@ -111,5 +109,5 @@ def host() -> PluginHost:
 
 
 def plugin(kind: str, name: str) -> Any:
-    """Return the registered plugin object ``name`` of ``kind`` (e.g. ``("renderer", "raster")``)."""
+    """The registered plugin object ``name`` of ``kind``, e.g. ``plugin("renderer", "raster")``."""
     return host().get(kind, name)

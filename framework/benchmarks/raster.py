@@ -1,0 +1,104 @@
+"""Benchmark of the 'raster' renderer against the naive tiled baseline in ``shared/bench``.
+
+Scene: 750 cubic segments (Hermite → Bézier) of a smooth random Lissajous-like scribble on a
+350×350 canvas, stroke width 3 px, segments about 4 px long. Timed: forward + backward of
+sum(image · fixed random weights) w.r.t. control points and widths, median over repeats.
+The baseline is imported from its file (never copied): ``$INKMOTION_SHARED_DIR/bench`` or the
+repository's sibling ``shared/bench``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
+
+import torch
+
+from inkmotion.plugins.raster import render_segments
+
+CANVAS = 350
+SEGMENTS = 750
+STROKE_WIDTH = 3.0
+
+
+def scribble_segments(n: int = SEGMENTS, size: int = CANVAS, seed: int = 0) -> torch.Tensor:
+    """Deterministic smooth scribble as cubic segments (n, 4, 2), float32, in pixels.
+
+    x(t) = size/2 + Σ_j a_j sin(2π f_j t + φ_j) per axis (3 harmonics), sampled at n + 1
+    uniform t; segment k = [x_k, x_k + v_k/(3n), x_{k+1} − v_{k+1}/(3n), x_{k+1}].
+    """
+    g = torch.Generator().manual_seed(seed)
+    t = torch.linspace(0, 1, n + 1, dtype=torch.float64)  # (n+1,)
+    freq = torch.randint(3, 9, (2, 3), generator=g).double()  # (2 axes, 3 harmonics)
+    phase = torch.rand(2, 3, generator=g, dtype=torch.float64) * 2 * math.pi
+    amp = torch.tensor([0.5, 0.3, 0.2], dtype=torch.float64) * 0.4 * size  # (3,)
+    arg = 2 * math.pi * freq[..., None] * t + phase[..., None]  # (2, 3, n+1)
+    pos = (amp[:, None] * torch.sin(arg)).sum(1).T + size / 2  # (n+1, 2)
+    vel = (amp[:, None] * 2 * math.pi * freq[..., None] * torch.cos(arg)).sum(1).T  # (n+1, 2)
+    h = 1 / (3 * n)
+    seg = torch.stack((pos[:-1], pos[:-1] + h * vel[:-1], pos[1:] - h * vel[1:], pos[1:]), 1)
+    return seg.float()
+
+
+def _shared_bench_dir() -> Path:
+    env = os.environ.get("INKMOTION_SHARED_DIR")
+    if env:
+        return Path(env) / "bench"
+    repo = Path(__file__).resolve().parents[2]
+    return (repo / ".." / "shared" / "bench").resolve()
+
+
+def load_naive_baseline() -> ModuleType | None:
+    """The baseline module ``naive_raster`` imported from its file, or None when absent."""
+    path = _shared_bench_dir() / "naive_raster.py"
+    if not path.is_file():
+        return None
+    spec = importlib.util.spec_from_file_location("inkmotion_bench_naive_raster", path)
+    if spec is None or spec.loader is None:
+        return None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _time_forward_backward(render: Callable[..., torch.Tensor], seg: torch.Tensor,
+                           widths: torch.Tensor, repeats: int) -> float:
+    """Median milliseconds of render + backward of sum(image · weights)."""
+    weights = torch.rand(CANVAS, CANVAS, generator=torch.Generator().manual_seed(1))
+
+    def step() -> None:
+        s = seg.clone().requires_grad_(True)
+        w = widths.clone().requires_grad_(True)
+        (render(s, w, CANVAS, CANVAS) * weights).sum().backward()
+
+    for _ in range(3):  # warm-up
+        step()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        step()
+        times.append((time.perf_counter() - t0) * 1e3)
+    return statistics.median(times)
+
+
+def bench_raster(repeats: int = 20) -> dict[str, float]:
+    """Forward+backward median ms of the project renderer and of the naive baseline (same run)
+    at 350×350, 750 segments, width 3 px: {"raster_ms", "naive_ms", "speedup"} (nan if absent)."""
+    seg = scribble_segments()
+    widths = torch.full((SEGMENTS,), STROKE_WIDTH)
+    raster_ms = _time_forward_backward(render_segments, seg, widths, repeats)
+    naive = load_naive_baseline()
+    naive_ms = math.nan
+    if naive is not None:
+        naive_ms = _time_forward_backward(naive.render, seg, widths, repeats)
+    return {"raster_ms": raster_ms, "naive_ms": naive_ms, "speedup": naive_ms / raster_ms}
+
+
+if __name__ == "__main__":
+    print(bench_raster())

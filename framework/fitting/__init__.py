@@ -1,0 +1,1 @@
+"""Fitting: loss terms and the optimiser loop."""

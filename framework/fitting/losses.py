@@ -1,0 +1,36 @@
+"""Loss terms of the compound objective λ·L_smooth + w_I·L_I (+ a canvas term).
+
+L_smooth = T_end/m + w_σ·Var[Δt]  per path (paper § Results; T_end normalised by m so λ
+does not depend on the number of targets, DESIGN.md), averaged over paths.
+"""
+
+from __future__ import annotations
+
+import torch
+from inkmotion.sigma_lognormal.batch import PlanBatch
+
+
+def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0) -> torch.Tensor:
+    """Mean over paths of T_end_p/m_p + w_σ·Var(Δt_p), Var over Δt_2..Δt_m (Δt_1 is unused).
+
+    The variance is the population variance, computed for all paths at once with
+    segment sums (no Python loop over paths).
+    """
+    m = batch.moves.to(t_end.dtype)  # (P,)
+    first, _ = batch.first_last()
+    path = batch.move_path()
+    used = (~first).to(t_end.dtype)  # (M,) Δt_i that set an onset
+    count = torch.zeros_like(m).index_add(0, path, used)  # (P,) = m_p − 1
+    denom = count.clamp(min=1.0)
+    mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
+    dev = (batch.delta_t - mean[path]) * used
+    var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom
+    return (t_end / m + w_sigma * var).mean()
+
+
+def canvas_cost(points: torch.Tensor, width: float, height: float) -> torch.Tensor:
+    """Mean squared distance (px²) of virtual targets outside the canvas [0, W] × [0, H]."""
+    x, y = points[:, 0], points[:, 1]
+    out = (torch.relu(-x) ** 2 + torch.relu(x - width) ** 2
+           + torch.relu(-y) ** 2 + torch.relu(y - height) ** 2)
+    return out.mean()

@@ -1,0 +1,37 @@
+"""Read any supported input into traces by asking the registered reader plugins."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from inkmotion.errors import InputError
+from inkmotion.geometry.traces import Traces
+from inkmotion.plugin_host import host
+
+
+def _is_scheme(source: str) -> bool:
+    """True for ``scheme:value`` sources such as ``text:hello`` (a drive letter is not one)."""
+    head, sep, _ = source.partition(":")
+    return bool(sep) and len(head) > 1 and head.isidentifier()
+
+
+def read_input(source: str) -> Traces:
+    """Parse ``source`` (a file path or ``scheme:value``) with the first reader that accepts it.
+
+    A path that does not exist (and is no ``scheme:value`` string) is refused before any
+    reader runs. Readers are asked in name order (``can_read``), so the choice is
+    deterministic; when none accepts the source the error lists the supported forms.
+    """
+    if not _is_scheme(source) and not Path(source).exists():
+        raise InputError(f"{source}: no such file; check the path.")
+    readers = host().plugins("reader")
+    for name in sorted(readers):
+        reader = readers[name]
+        if reader.can_read(source):
+            return reader.read(source)
+    forms = "; ".join(
+        f"{name} ({readers[name].description.rstrip('.')})" for name in sorted(readers)
+    )
+    raise InputError(
+        f"{source}: no reader accepts this input; supported forms are: {forms or 'none'}."
+    )

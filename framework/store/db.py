@@ -1,0 +1,112 @@
+"""Engines for the job store, SQLite pragmas, and Alembic migrations on first use.
+
+One engine per database URL and process (a cache, not state: the same URL always gives an
+equivalent engine). The schema is brought to the latest Alembic revision the first time a
+URL is used in a process; concurrent first uses from several workers are serialised by a
+file lock (SQLite) or an advisory lock (PostgreSQL).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import Engine, create_engine, event
+from sqlalchemy.engine import make_url
+
+MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
+SQLITE_BUSY_TIMEOUT_MS = 30_000
+
+
+def _sqlite_pragmas(dbapi_connection: Any, connection_record: Any) -> None:
+    """WAL lets readers run beside one writer; busy_timeout makes writers wait, not fail."""
+    cur = dbapi_connection.cursor()
+    cur.execute(f"PRAGMA busy_timeout={SQLITE_BUSY_TIMEOUT_MS}")
+    cur.execute("PRAGMA journal_mode=WAL")
+    cur.execute("PRAGMA synchronous=NORMAL")
+    cur.close()
+
+
+def _sqlite_path(url: str) -> Path | None:
+    u = make_url(url)
+    if u.get_backend_name() != "sqlite" or not u.database or u.database == ":memory:":
+        return None
+    return Path(u.database)
+
+
+def alembic_config() -> Any:
+    """An Alembic :class:`~alembic.config.Config` pointing at the packaged migrations."""
+    from alembic.config import Config
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(MIGRATIONS_DIR))
+    return cfg
+
+
+@contextmanager
+def _migration_lock(url: str) -> Iterator[None]:
+    path = _sqlite_path(url)
+    if path is None:
+        yield
+        return
+    import fcntl
+
+    with open(path.with_name(path.name + ".migrate.lock"), "a+") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def upgrade(engine: Engine, revision: str = "head") -> None:
+    """Run ``alembic upgrade <revision>`` on ``engine``'s database."""
+    from alembic import command
+
+    url = engine.url.render_as_string(hide_password=False)
+    with _migration_lock(url), engine.begin() as conn:
+        if conn.dialect.name == "postgresql":
+            from sqlalchemy import text
+
+            conn.execute(text("SELECT pg_advisory_xact_lock(727001)"))
+        cfg = alembic_config()
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, revision)
+
+
+def get_engine(url: str, migrate: bool = True) -> Engine:
+    """The engine for ``url``, its schema upgraded to the latest revision (once per process).
+
+    Engines are cached per process id, so a forked child (Celery prefork) never reuses
+    its parent's connections."""
+    key = (os.getpid(), url, migrate)
+    engine = _ENGINES.get(key)
+    if engine is None:
+        engine = _ENGINES[key] = _create(url, migrate)
+    return engine
+
+
+def _create(url: str, migrate: bool) -> Engine:
+    path = _sqlite_path(url)
+    kwargs: dict[str, Any] = {"pool_pre_ping": True}
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        kwargs["connect_args"] = {"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}
+    engine = create_engine(url, **kwargs)
+    if engine.dialect.name == "sqlite":
+        event.listen(engine, "connect", _sqlite_pragmas)
+    if migrate:
+        upgrade(engine)
+    return engine
+
+
+def dispose_engines() -> None:
+    """Close every cached engine of this process (tests, shutdown)."""
+    for key in [k for k in _ENGINES if k[0] == os.getpid()]:
+        _ENGINES.pop(key).dispose()
+
+
+_ENGINES: dict[tuple[int, str, bool], Engine] = {}  # cache: (pid, url, migrate) -> engine

@@ -1,0 +1,183 @@
+"""Repository functions over the job table.
+
+Every state change is one conditional ``UPDATE ... WHERE status IN (...)``, so concurrent
+workers and the CLI never race through a read-modify-write: a function returns ``False``
+when the job was not in a state that allows the change (e.g. it was cancelled meanwhile).
+Records are returned as plain :class:`JobRecord` snapshots, detached from any session.
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import delete, select, update
+from sqlalchemy.orm import Session
+
+from inkmotion.store.db import get_engine
+from inkmotion.store.models import FINAL_STATUSES, STATUSES, Job, utcnow
+
+
+@dataclass(frozen=True)
+class JobRecord:
+    """A snapshot of one job row."""
+
+    id: str
+    kind: str
+    queue: str
+    status: str
+    spec: dict[str, Any]
+    label: str
+    step: int
+    total: int
+    losses: dict[str, float] | None
+    t_end: float | None
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    updated_at: datetime
+    worker_host: str | None
+    attempts: int
+    error: str | None
+    artifact_dir: str | None
+
+    @property
+    def finished(self) -> bool:
+        return self.status in FINAL_STATUSES
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (ISO 8601 timestamps)."""
+        d = asdict(self)
+        for k, v in d.items():
+            if isinstance(v, datetime):
+                d[k] = v.isoformat()
+        return d
+
+
+def _record(job: Job) -> JobRecord:
+    return JobRecord(**{f: getattr(job, f) for f in JobRecord.__dataclass_fields__})
+
+
+def _db_url(db_url: str | None) -> str:
+    if db_url is not None:
+        return db_url
+    from inkmotion.settings import load_settings
+
+    return load_settings().db_url
+
+
+def new_job_id() -> str:
+    """A fresh job id (uuid4 hex, 32 characters); also the Celery task id."""
+    return uuid.uuid4().hex
+
+
+def create_job(spec: dict[str, Any], *, kind: str, queue: str, job_id: str | None = None,
+               label: str = "", total: int = 0, db_url: str | None = None) -> JobRecord:
+    """Record a new job as ``queued``; returns its record."""
+    now = utcnow()
+    job = Job(id=job_id or new_job_id(), kind=kind, queue=queue, status="queued", spec=spec,
+              label=label[:255], step=0, total=total, created_at=now, updated_at=now,
+              attempts=0)
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        s.add(job)
+        s.flush()
+        return _record(job)
+
+
+def update_spec(job_id: str, spec: dict[str, Any], db_url: str | None = None) -> None:
+    """Replace a queued job's spec (e.g. its input rewritten to the job's own copy)."""
+    _update(job_id, ("queued",), db_url, spec=spec)
+
+
+def get_job(job_id: str, db_url: str | None = None) -> JobRecord | None:
+    """The job with id ``job_id``, or ``None``."""
+    with Session(get_engine(_db_url(db_url))) as s:
+        job = s.get(Job, job_id)
+        return None if job is None else _record(job)
+
+
+def find_job(prefix: str, db_url: str | None = None) -> JobRecord | list[JobRecord] | None:
+    """The job whose id starts with ``prefix`` (a full id or a unique prefix); a list when
+    the prefix is ambiguous; ``None`` when nothing matches."""
+    exact = get_job(prefix, db_url)
+    if exact is not None:
+        return exact
+    if len(prefix) < 4:
+        return None
+    with Session(get_engine(_db_url(db_url))) as s:
+        rows = s.scalars(select(Job).where(Job.id.like(f"{prefix}%")).limit(10)).all()
+        found = [_record(j) for j in rows]
+    if not found:
+        return None
+    return found[0] if len(found) == 1 else found
+
+
+def list_jobs(status: str | Iterable[str] | None = None, limit: int | None = 50,
+              db_url: str | None = None) -> list[JobRecord]:
+    """Jobs, newest first, optionally only those with the given status(es)."""
+    q = select(Job).order_by(Job.created_at.desc(), Job.id)
+    if status is not None:
+        statuses = [status] if isinstance(status, str) else list(status)
+        unknown = set(statuses) - set(STATUSES)
+        if unknown:
+            from inkmotion.errors import SpecError
+
+            raise SpecError(f"Unknown status {', '.join(sorted(unknown))}; "
+                            f"statuses are {', '.join(STATUSES)}.")
+        q = q.where(Job.status.in_(statuses))
+    if limit is not None:
+        q = q.limit(limit)
+    with Session(get_engine(_db_url(db_url))) as s:
+        return [_record(j) for j in s.scalars(q).all()]
+
+
+def _update(job_id: str, allowed: Iterable[str], db_url: str | None, **values: Any) -> bool:
+    values.setdefault("updated_at", utcnow())
+    stmt = (update(Job).where(Job.id == job_id, Job.status.in_(list(allowed)))
+            .values(**values).execution_options(synchronize_session=False))
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(stmt).rowcount == 1
+
+
+def mark_running(job_id: str, worker_host: str, db_url: str | None = None) -> bool:
+    """A worker starts an attempt: status running, attempts + 1, its host. ``False`` when
+    the job is already finished (cancelled, succeeded, failed): do not run it."""
+    return _update(job_id, ("queued", "running"), db_url, status="running",
+                   attempts=Job.attempts + 1, worker_host=worker_host,
+                   started_at=utcnow(), step=0, error=None)
+
+
+def update_progress(job_id: str, step: int, total: int, losses: dict[str, float] | None = None,
+                    t_end: float | None = None, db_url: str | None = None) -> bool:
+    """Record progress of a running job. ``False`` when it is no longer running (e.g.
+    cancelled): the worker should stop."""
+    return _update(job_id, ("running",), db_url, step=step, total=total, losses=losses,
+                   t_end=t_end)
+
+
+def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None) -> bool:
+    """The job's artifacts are complete at ``artifact_dir``."""
+    now = utcnow()
+    return _update(job_id, ("running",), db_url, status="succeeded", artifact_dir=artifact_dir,
+                   finished_at=now, error=None)
+
+
+def mark_failed(job_id: str, error: str, db_url: str | None = None) -> bool:
+    """The job failed for good with the one-sentence ``error``."""
+    return _update(job_id, ("queued", "running"), db_url, status="failed", error=error,
+                   finished_at=utcnow())
+
+
+def mark_cancelled(job_id: str, db_url: str | None = None) -> bool:
+    """Cancel a queued or running job; ``False`` when it had already finished."""
+    return _update(job_id, ("queued", "running"), db_url, status="cancelled",
+                   finished_at=utcnow())
+
+
+def delete_job(job_id: str, db_url: str | None = None) -> bool:
+    """Remove a job record (used when it could not be queued at all)."""
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(delete(Job).where(Job.id == job_id)).rowcount == 1

@@ -1,0 +1,5 @@
+<gml spec="1.0">
+  <tag>
+    <drawing></drawing>
+  </tag>
+</gml>

@@ -1,0 +1,1 @@
+<gml><tag><drawing><stroke><pt><x>0.5</x><y>0.5</y></pt></stroke></drawing></tag></gml>

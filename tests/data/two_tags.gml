@@ -1,0 +1,15 @@
+<GML>
+  <tag>
+    <drawing>
+      <stroke><pt><x>0.1</x><y>0.1</y></pt><pt><x>0.2</x><y>0.2</y></pt></stroke>
+    </drawing>
+    <drawing>
+      <stroke><pt><x>0.3</x><y>0.1</y></pt><pt><x>0.4</x><y>0.2</y></pt></stroke>
+    </drawing>
+  </tag>
+  <tag>
+    <drawing>
+      <stroke><pt><x>0.5</x><y>0.5</y></pt><pt><x>0.6</x><y>0.6</y></pt></stroke>
+    </drawing>
+  </tag>
+</GML>

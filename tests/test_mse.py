@@ -1,0 +1,59 @@
+"""Multi-scale MSE: zero at identity, ordering, gradients, level count."""
+
+import pytest
+import torch
+
+import inkmotion
+from inkmotion.plugins.mse import default_levels, multiscale_mse, pyramid
+
+
+def _disc(h: int, w: int, cx: float, cy: float, r: float = 6.0) -> torch.Tensor:
+    y, x = torch.meshgrid(torch.arange(h, dtype=torch.float64),
+                          torch.arange(w, dtype=torch.float64), indexing="ij")
+    return torch.sigmoid(2.0 * (r - torch.hypot(x - cx, y - cy)))
+
+
+def test_zero_for_identical() -> None:
+    a = _disc(64, 48, 20, 20)
+    assert float(multiscale_mse(a, a.clone())) == 0.0
+    loss = inkmotion.plugin("image-loss", "mse").prepare(a)
+    assert float(loss(a.clone())) == 0.0
+
+
+def test_positive_and_decreasing_as_images_approach() -> None:
+    target = _disc(64, 64, 40, 40)
+    loss = inkmotion.plugin("image-loss", "mse").prepare(target)
+    values = [float(loss(_disc(64, 64, 40 - s, 40 - s))) for s in (24, 16, 8, 4, 1)]
+    assert all(v > 0 for v in values)
+    assert values == sorted(values, reverse=True)
+    # the coarse levels still see discs that do not overlap at full resolution
+    far = _disc(64, 64, 10, 10)
+    assert float(loss(far)) > float(torch.nn.functional.mse_loss(far, target))
+
+
+def test_gradient_flows() -> None:
+    target = _disc(40, 40, 25, 20)
+    cx = torch.tensor(10.3, dtype=torch.float64, requires_grad=True)
+    loss = inkmotion.plugin("image-loss", "mse").prepare(target)
+    value = loss(_disc(40, 40, cx, 20.5))
+    value.backward()
+    assert cx.grad is not None and float(cx.grad) < 0  # moving right reduces the loss
+    a = torch.rand(1, 1, 12, 12, dtype=torch.float64).squeeze().requires_grad_()
+    b = torch.rand(12, 12, dtype=torch.float64)
+    torch.autograd.gradcheck(lambda x: multiscale_mse(x, b, 3), (a,))
+
+
+@pytest.mark.parametrize(("h", "w", "n"), [(350, 350, 6), (350, 200, 6), (64, 64, 4),
+                                           (8, 8, 1), (3, 5, 1)])
+def test_number_of_levels(h: int, w: int, n: int) -> None:
+    assert default_levels(h, w) == n
+    levels = pyramid(torch.zeros(h, w), n)
+    assert len(levels) == n
+    assert levels[-1].shape[-1] == -(-w // 2 ** (n - 1))
+
+
+def test_dtype_follows_input() -> None:
+    t = torch.rand(32, 32)
+    loss = inkmotion.plugin("image-loss", "mse").prepare(t)
+    assert loss(torch.rand(32, 32, dtype=torch.float64)).dtype == torch.float64
+    assert multiscale_mse(t, t, 2).dtype == torch.float32

@@ -1,0 +1,172 @@
+"""Output writers: SVG, PNG/overlay, trajectory CSV, speed plot, atomic staging."""
+
+import csv
+import json
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from inkmotion import MotorPlan, bezier_segments
+from inkmotion.outputs import (
+    StagingDir,
+    write_json_atomic,
+    write_overlay,
+    write_png,
+    write_speed_plot,
+    write_svg,
+    write_trajectory_csv,
+)
+
+SVG = "{http://www.w3.org/2000/svg}"
+
+
+def _plans(dim: int = 2) -> list[MotorPlan]:
+    a = [[20.0, 20.0], [120.0, 40.0], [60.0, 150.0], [180.0, 170.0]]
+    b = [[200.0, 30.0], [260.0, 90.0], [210.0, 160.0]]
+    if dim == 3:
+        a = [p + [2.0 + i] for i, p in enumerate(a)]
+        b = [p + [1.0] for p in b]
+    plans = [MotorPlan.from_points(a, dtype=torch.float64),
+             MotorPlan.from_points(b, dtype=torch.float64, width=5.0)]
+    plans[0].delta = torch.tensor([0.5, -0.3, 0.0], dtype=torch.float64)
+    plans[0].delta_t = torch.tensor([1.0, 0.5, 0.4], dtype=torch.float64)
+    return plans
+
+
+def _bezier_length(seg: torch.Tensor, k: int = 200) -> float:
+    t = torch.linspace(0, 1, k + 1, dtype=torch.float64)[:, None, None]
+    p = seg[None, :, :, :2].to(torch.float64)  # (1, S, 4, 2)
+    c = ((1 - t) ** 3 * p[:, :, 0] + 3 * (1 - t) ** 2 * t * p[:, :, 1]
+         + 3 * (1 - t) * t**2 * p[:, :, 2] + t**3 * p[:, :, 3])  # (k+1, S, 2)
+    return float(torch.linalg.vector_norm(c.diff(dim=0), dim=-1).sum())
+
+
+def test_svg(tmp_path: Path) -> None:
+    plans = _plans()
+    segs = [bezier_segments(p).detach() for p in plans]
+    out = tmp_path / "drawing.svg"
+    write_svg(out, segs, [p.width for p in plans], (300.0, 200.0))
+    root = ET.parse(out).getroot()
+    assert root.tag == f"{SVG}svg" and root.get("version") == "1.1"
+    assert root.get("width") == "300px" and root.get("height") == "200px"
+    assert root.get("viewBox") == "0 0 300 200"
+    paths = root.findall(f".//{SVG}path")
+    assert len(paths) == 2
+    assert [float(p.get("stroke-width")) for p in paths] == [3.0, 5.0]
+    d = paths[0].get("d")
+    assert d.startswith("M ") and d.count("C ") == segs[0].shape[0]
+    svgelements = pytest.importorskip("svgelements")
+    doc = svgelements.SVG.parse(str(out))
+    elements = [e for e in doc.elements() if isinstance(e, svgelements.Path)]
+    assert len(elements) == 2
+    for e, s in zip(elements, segs, strict=True):
+        assert e.length() == pytest.approx(_bezier_length(s), rel=1e-3)
+
+
+def test_png_and_overlay(tmp_path: Path) -> None:
+    img = torch.zeros(40, 60)
+    img[10:20, 5:50] = 1.0
+    write_png(tmp_path / "a.png", img)
+    a = cv2.imread(str(tmp_path / "a.png"), cv2.IMREAD_UNCHANGED)
+    assert a.shape == (40, 60) and a.dtype == np.uint8
+    assert a[15, 20] == 0 and a[0, 0] == 255
+
+    target = torch.zeros(40, 60)
+    target[12:22, 5:50] = 1.0
+    pos = torch.tensor([[5.0, 15.0], [50.0, 15.0]])
+    write_overlay(tmp_path / "o.png", target, img, traces=[np.array([[5, 17], [50, 17]])],
+                  positions=[pos])
+    o = cv2.imread(str(tmp_path / "o.png"), cv2.IMREAD_COLOR)
+    assert o.shape == (40, 60, 3)
+    assert tuple(o[0, 0]) == (255, 255, 255)
+    b, g, r = (int(v) for v in o[21, 30])  # target only: reddish
+    assert r > b and r > 200
+    b, g, r = (int(v) for v in o[11, 30])  # result only: bluish
+    assert b > r and b > 100
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_trajectory_csv(tmp_path: Path, dim: int) -> None:
+    plans = _plans(dim)
+    out = tmp_path / "trajectory.csv"
+    write_trajectory_csv(out, plans, samples_per_move=10)
+    rows = list(csv.reader(out.open()))
+    expected = ["path", "t", "x", "y"] + (["r"] if dim == 3 else []) + [
+        "vx", "vy", "ax", "ay", "speed"]
+    assert rows[0] == expected
+    body = rows[1:]
+    assert len(body) == sum(10 * p.m + 1 for p in plans)
+    assert {r[0] for r in body} == {"0", "1"}
+    first = [float(v) for v in body[0][1:]]
+    # t = 0 is the start of the first ±3σ window: Φ(−3) ≈ 0.13 % of d_1 is already done
+    assert first[0] == 0.0 and first[1:3] == pytest.approx([20.0, 20.0], abs=0.3)
+    last0 = [float(v) for v in body[10 * plans[0].m][1:]]
+    assert last0[1:3] == pytest.approx([180.0, 170.0], abs=0.3)
+    vx, vy, speed = (float(body[5][expected.index(k)]) for k in ("vx", "vy", "speed"))
+    assert speed == pytest.approx(math.hypot(vx, vy), rel=1e-6)
+
+
+def test_speed_plot(tmp_path: Path) -> None:
+    out = tmp_path / "speed.png"
+    write_speed_plot(out, _plans())
+    img = cv2.imread(str(out), cv2.IMREAD_COLOR)
+    assert img is not None and img.shape[0] > 100 and img.shape[1] > 300
+
+
+def test_speed_plot_many_paths_is_fast(tmp_path: Path) -> None:
+    import time
+
+    rng = np.random.default_rng(0)
+    plans = [MotorPlan.from_points(rng.uniform(0, 300, size=(16, 2))) for _ in range(20)]
+    t = time.perf_counter()
+    write_speed_plot(tmp_path / "speed.png", plans)
+    assert time.perf_counter() - t < 3.0  # about 1 s; generous for slow CI machines
+
+
+def test_staging_dir_commit_replaces_atomically(tmp_path: Path) -> None:
+    final = tmp_path / "job"
+    final.mkdir()
+    (final / "old.txt").write_text("old")
+    with StagingDir(final) as stage:
+        assert stage.path.parent == tmp_path and stage.path.name.startswith("job.partial-")
+        (stage.path / "new.txt").write_text("new")
+        assert (final / "old.txt").exists()  # untouched until commit
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["job"]
+    assert sorted(p.name for p in final.iterdir()) == ["new.txt"]
+
+
+def test_staging_dir_cleanup_on_exception(tmp_path: Path) -> None:
+    final = tmp_path / "out" / "job"
+    with pytest.raises(RuntimeError), StagingDir(final) as stage:
+        (stage.path / "half.txt").write_text("x")
+        raise RuntimeError("boom")
+    assert not final.exists()
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_staging_dir_exception_keeps_existing(tmp_path: Path) -> None:
+    final = tmp_path / "job"
+    final.mkdir()
+    (final / "keep.txt").write_text("keep")
+    with pytest.raises(ValueError), StagingDir(final) as stage:
+        (stage.path / "x").write_text("x")
+        raise ValueError
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["job"]
+    assert (final / "keep.txt").read_text() == "keep"
+
+
+def test_write_json_atomic(tmp_path: Path) -> None:
+    out = tmp_path / "report.json"
+    write_json_atomic(out, {"a": 1})
+    write_json_atomic(out, {"a": [1, 2]})
+    assert json.loads(out.read_text()) == {"a": [1, 2]}
+    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]
+    with pytest.raises(TypeError):
+        write_json_atomic(out, {"bad": object()})
+    assert json.loads(out.read_text()) == {"a": [1, 2]}
+    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]

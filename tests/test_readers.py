@@ -1,0 +1,274 @@
+"""Reader plugins (gml, svg, text) and ``read_input`` dispatch, on small made inputs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inkmotion.errors import InputError
+from inkmotion.geometry.read import read_input
+from inkmotion.plugins import gml, hershey, svg
+from inkmotion.plugins.gml import GmlReader, read_gml, up_rotation
+from inkmotion.plugins.hershey import HersheyTextReader, render_text
+from inkmotion.plugins.svg import SvgReader, flatten_segment, read_svg
+
+DATA = Path(__file__).resolve().parent / "data"
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def data(name: str) -> str:
+    return str(DATA / name)
+
+
+def shared_gml(name: str) -> str:
+    path = SHARED / "gml" / name
+    if not path.is_file():
+        pytest.skip(f"shared sample data {path} is not present")
+    return str(path)
+
+
+def bbox(traces) -> tuple[np.ndarray, np.ndarray]:
+    pts = np.vstack([s[:, :2] for s in traces.strokes])
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+# --- GML XML -----------------------------------------------------------------------------
+
+
+def test_gml_xml_screen_bounds_and_pen_up_skipped():
+    t = read_gml(data("tag.gml"))
+    assert len(t.strokes) == 2  # the isdrawing="false" stroke is skipped
+    assert [len(s) for s in t.strokes] == [3, 2]
+    np.testing.assert_allclose(t.strokes[0], [[0, 0], [200, 0], [200, 100]])  # x*200, y*100
+    np.testing.assert_allclose(t.strokes[1], [[100, 50], [100, 75]])
+    lo, hi = bbox(t)
+    assert (hi - lo)[0] / (hi - lo)[1] == pytest.approx(2.0)
+    assert t.source == data("tag.gml")
+
+
+def test_gml_times_kept_in_meta():
+    t = read_gml(data("tag.gml"))
+    np.testing.assert_allclose(t.meta["t"][0], [0.2, 0.3, 0.4])
+    np.testing.assert_allclose(t.meta["t"][1], [0.5, 0.6])  # the older <time> element
+
+
+def test_gml_up_vector_rotates_drawing_upright():
+    t = read_gml(data("rotated_up.gml"))
+    # up = (1, 0): (x, y) -> (y, -x) after scaling by screenBounds (200, 100)
+    np.testing.assert_allclose(t.strokes[0], [[0, 0], [0, -200], [100, -200]], atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("up", "expected"),
+    [
+        ((0.0, -1.0), [[1, 0], [0, 1]]),
+        ((1.0, 0.0), [[0, 1], [-1, 0]]),
+        ((-1.0, 0.0), [[0, -1], [1, 0]]),
+        ((0.0, 1.0), [[-1, 0], [0, -1]]),
+    ],
+)
+def test_up_rotation_maps_up_to_minus_y(up, expected):
+    r = up_rotation(up)
+    np.testing.assert_allclose(r, expected, atol=1e-12)
+    np.testing.assert_allclose(r @ np.array(up), [0.0, -1.0], atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0)  # a rotation, never a mirror
+
+
+def test_gml_several_tags_and_drawings():
+    t = read_gml(data("two_tags.gml"))  # upper-case <GML>, no header
+    assert len(t.strokes) == 3
+    assert t.meta["tags"] == 2
+
+
+# --- GML JSON / JSONP --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["tag.json", "tag.jsonp"])
+def test_gml_json_forms(name):
+    t = read_gml(data(name))
+    # stroke 2 is isDrawing=false, stroke 3 a single point (dropped)
+    assert [len(s) for s in t.strokes] == [3, 2]
+    np.testing.assert_allclose(t.strokes[0], [[0, 0], [640, 0], [640, 480]])
+    np.testing.assert_allclose(t.strokes[1], [[160, 240], [480, 240]])
+    assert "t" not in t.meta  # the last stroke has no times
+
+
+@pytest.mark.parametrize(
+    ("name", "strokes", "points"), [("49867.json", 7, 723), ("49873.json", 5, 614)]
+)
+def test_gml_000000book_samples(name, strokes, points):
+    t = read_input(shared_gml(name))
+    assert (len(t.strokes), t.n_points) == (strokes, points)
+    lo, hi = bbox(t)
+    assert np.all(lo >= 0) and hi[0] <= 640 and hi[1] <= 480
+    assert len(t.meta["t"]) == strokes
+
+
+def test_gml_shared_xml_sample():
+    t = read_input(shared_gml("temptTag-2010_6_7_14_52_1.gml"))
+    assert len(t.strokes) >= 1
+
+
+@pytest.mark.parametrize("name", ["minimal.gml", "spec_example.gml"])
+def test_gml_shared_degenerate_samples(name):
+    path = shared_gml(name)
+    with pytest.raises(InputError, match=name):
+        read_input(path)
+
+
+# --- bad inputs --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "problem"),
+    [
+        ("malformed.gml", "not well-formed XML"),
+        ("empty.gml", "no pen-down points"),
+        ("one_point.gml", "two distinct points"),
+        ("same_points.gml", "two distinct points"),
+        ("nan.gml", "NaN"),
+        ("bad_number.gml", "not a number"),
+        ("wrong_root.gml", "not <gml>"),
+        ("truncated.json", "malformed or truncated"),
+        ("no_gml.json", "not an object"),
+        ("binary.gml", "not UTF-8"),
+        ("malformed.svg", "could not be read"),
+        ("empty.svg", "no paths"),
+        ("degenerate.svg", "two distinct points"),
+    ],
+)
+def test_bad_inputs_raise_input_error_naming_the_file(name, problem):
+    with pytest.raises(InputError, match=problem) as err:
+        read_input(data(name))
+    message = str(err.value)
+    assert message.startswith(data(name))
+    assert message.count(". ") == 0 and message.endswith(".")  # one sentence
+
+
+def test_empty_file(tmp_path):
+    for suffix in (".gml", ".svg", ".json"):
+        path = tmp_path / f"empty{suffix}"
+        path.write_text("")
+        with pytest.raises(InputError, match="empty"):
+            read_input(str(path))
+
+
+def test_oversized_file_refused(tmp_path, monkeypatch):
+    monkeypatch.setattr(gml, "MAX_FILE_BYTES", 100)
+    monkeypatch.setattr(svg, "MAX_FILE_BYTES", 100)
+    with pytest.raises(InputError, match="MB limit"):
+        read_gml(data("tag.gml"))
+    with pytest.raises(InputError, match="MB limit"):
+        read_svg(data("shapes.svg"))
+
+
+def test_too_many_points_refused(monkeypatch):
+    monkeypatch.setattr(gml, "MAX_POINTS", 3)
+    with pytest.raises(InputError, match="limit"):
+        read_gml(data("tag.gml"))
+    monkeypatch.setattr(svg, "MAX_POINTS", 10)
+    with pytest.raises(InputError, match="limit"):
+        read_svg(data("shapes.svg"))
+
+
+# --- SVG ---------------------------------------------------------------------------------
+
+
+def test_svg_subpaths_curves_and_transforms():
+    t = read_svg(data("shapes.svg"))
+    # path with 3 subpaths + translated closed quadratic + polyline
+    assert len(t.strokes) == 5
+    first, cubic, arc, quad, poly = t.strokes
+    np.testing.assert_allclose(first, [[10, 10], [40, 10], [40, 40]])
+    assert len(cubic) > 10 and len(arc) > 10  # curves flattened to many points
+    np.testing.assert_allclose(cubic[[0, -1]], [[50, 50], [100, 50]], atol=1e-9)
+    np.testing.assert_allclose(cubic[:, 1].min(), 27.5, atol=0.05)  # cubic's apex
+    # arc: radius 20 about (130, 50), every sample on the circle
+    np.testing.assert_allclose(np.hypot(arc[:, 0] - 130, arc[:, 1] - 50), 20, atol=1e-6)
+    np.testing.assert_allclose(quad[0], [110, 80])  # translate(100 0) applied
+    np.testing.assert_allclose(quad[-1], quad[0])  # Z closes the subpath
+    np.testing.assert_allclose(poly, [[5, 95], [20, 90], [35, 95]])
+
+
+def test_svg_nested_transform():
+    t = read_svg(data("transformed.svg"))
+    np.testing.assert_allclose(t.strokes[0], [[50, 50], [70, 50]])
+
+
+def test_flatten_segment_tolerance():
+    def circle(ts):
+        return np.stack([np.cos(np.pi * ts), np.sin(np.pi * ts)], axis=1)
+
+    pts = flatten_segment(circle, 1e-4)
+    mids = (pts[:-1] + pts[1:]) / 2
+    assert np.all(1 - np.hypot(mids[:, 0], mids[:, 1]) < 1.1e-4)
+
+
+# --- text --------------------------------------------------------------------------------
+
+
+def test_text_word_renders_connected_strokes():
+    t = read_input("text:hello")
+    assert 1 <= len(t.strokes) <= 5  # cursive: letters join into a few pen-down polylines
+    lo, hi = bbox(t)
+    width, height = hi - lo
+    assert width > 2 * height  # a word is wider than tall
+    assert t.meta["text"] == "hello"
+
+
+def test_text_y_down_and_letter_spacing():
+    one = render_text("l")
+    two = render_text("ll")
+    (lo1, hi1), (lo2, hi2) = bbox(one), bbox(two)
+    assert 1.5 * (hi1 - lo1)[0] < (hi2 - lo2)[0]  # the second letter sits beside the first
+    assert render_text("lI", spacing=10.0).n_points == render_text("lI").n_points
+    # ascender of 'l' lies above (smaller y than) the end of the stroke on the baseline
+    stroke = one.strokes[0]
+    assert stroke[:, 1].min() < stroke[-1, 1]
+
+
+@pytest.mark.parametrize(
+    ("source", "problem"), [("text:", "empty"), ("text:   ", "empty"), ("text:naïve", "no glyph")]
+)
+def test_text_errors(source, problem):
+    with pytest.raises(InputError, match=problem) as err:
+        read_input(source)
+    assert str(err.value).startswith(source)
+
+
+# --- dispatch ----------------------------------------------------------------------------
+
+
+def test_read_input_dispatch():
+    assert read_input(data("tag.gml")).meta["format"] == "gml"
+    assert read_input(data("tag.jsonp")).meta["format"] == "gml"
+    assert read_input(data("shapes.svg")).meta["format"] == "svg"
+    assert read_input("text:ink").meta["format"] == "text"
+
+
+def test_can_read():
+    assert GmlReader().can_read("a/b.GML") and GmlReader().can_read("x.json")
+    assert not GmlReader().can_read("text:tag.gml")
+    assert SvgReader().can_read("x.svg") and not SvgReader().can_read("x.gml")
+    assert HersheyTextReader().can_read("text:x") and not HersheyTextReader().can_read("x.svg")
+    assert hershey.SCHEME == "text:"
+
+
+def test_missing_file():
+    with pytest.raises(InputError, match="no such file") as err:
+        read_input(data("does_not_exist.gml"))
+    assert data("does_not_exist.gml") in str(err.value)
+
+
+def test_unknown_form_lists_supported_forms(tmp_path):
+    path = tmp_path / "drawing.xyz"
+    path.write_text("hello")
+    for source in (str(path), "caption:a cat"):
+        with pytest.raises(InputError, match="no reader accepts") as err:
+            read_input(source)
+        message = str(err.value)
+        assert message.startswith(source)
+        for name in ("gml", "svg", "text"):
+            assert name in message
