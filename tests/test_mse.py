@@ -57,3 +57,14 @@ def test_dtype_follows_input() -> None:
     loss = inkmotion.plugin("image-loss", "mse").prepare(t)
     assert loss(torch.rand(32, 32, dtype=torch.float64)).dtype == torch.float64
     assert multiscale_mse(t, t, 2).dtype == torch.float32
+
+
+def test_matrix_operators_equal_convolution_pyramid() -> None:
+    """prepare()'s fast separable operators compute exactly the blur-and-pool pyramid."""
+    from inkmotion.plugins.mse import MultiscaleMse, multiscale_mse
+
+    g = torch.Generator().manual_seed(0)
+    target = (torch.rand(37, 61, generator=g, dtype=torch.float64) > 0.8).double()
+    image = torch.rand(37, 61, generator=g, dtype=torch.float64)
+    fast = MultiscaleMse().prepare(target)(image)
+    torch.testing.assert_close(fast, multiscale_mse(image, target))

@@ -85,7 +85,6 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         "task_queues": [Queue(q, routing_key=q) for q in QUEUES],
         "task_default_queue": "optimise",
         "task_routes": {TASK_NAME: {"queue": "optimise"}},
-        "worker_hijack_root_logger": False,
     }
     ssl_opts = broker_ssl_options(settings.broker_url)
     if ssl_opts is not None:

@@ -15,8 +15,9 @@ def _is_scheme(source: str) -> bool:
     return bool(sep) and len(head) > 1 and head.isidentifier()
 
 
-def read_input(source: str) -> Traces:
-    """Parse ``source`` (a file path or ``scheme:value``) with the first reader that accepts it.
+def read_input(source: str, reader: str | None = None) -> Traces:
+    """Parse ``source`` (a file path or ``scheme:value``) with the first reader that accepts it,
+    or with the reader plugin named ``reader``.
 
     A path that does not exist (and is no ``scheme:value`` string) is refused before any
     reader runs. Readers are asked in name order (``can_read``), so the choice is
@@ -24,11 +25,12 @@ def read_input(source: str) -> Traces:
     """
     if not _is_scheme(source) and not Path(source).exists():
         raise InputError(f"{source}: no such file; check the path.")
+    if reader is not None:
+        return host().get("reader", reader).read(source)
     readers = host().plugins("reader")
     for name in sorted(readers):
-        reader = readers[name]
-        if reader.can_read(source):
-            return reader.read(source)
+        if readers[name].can_read(source):
+            return readers[name].read(source)
     forms = "; ".join(
         f"{name} ({readers[name].description.rstrip('.')})" for name in sorted(readers)
     )

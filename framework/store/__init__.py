@@ -41,4 +41,5 @@ __all__ = [
     "new_job_id",
     "update_progress",
     "update_spec",
+    "upgrade",
 ]

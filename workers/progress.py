@@ -1,0 +1,47 @@
+"""Observer that writes a running job's progress into the job store."""
+
+from __future__ import annotations
+
+import logging
+import time
+
+from inkmotion.jobs.observers import StepState
+
+log = logging.getLogger("inkmotion.workers")
+
+
+class JobCancelled(Exception):
+    """Raised inside the runner when the job was cancelled while running."""
+
+
+class StoreProgressObserver:
+    """Writes step/total, loss terms and T_end at most every ``min_interval`` seconds
+    (and on the last step); stops the run with :class:`JobCancelled` when the record is no
+    longer ``running`` (``inkmotion jobs cancel`` on a worker that cannot be signalled).
+    A database hiccup while writing progress is logged, not fatal."""
+
+    def __init__(self, job_id: str, db_url: str | None = None,
+                 min_interval: float = 0.5) -> None:
+        self.job_id = job_id
+        self.db_url = db_url
+        self.min_interval = min_interval
+        self._last = 0.0
+
+    def on_step(self, state: StepState) -> None:
+        from sqlalchemy.exc import SQLAlchemyError
+
+        from inkmotion.store import get_job, update_progress
+
+        now = time.monotonic()
+        if now - self._last < self.min_interval and state.step != state.total:
+            return
+        self._last = now
+        try:
+            ok = update_progress(self.job_id, state.step, state.total, dict(state.losses),
+                                 float(state.t_end), db_url=self.db_url)
+            if not ok:
+                record = get_job(self.job_id, self.db_url)
+                if record is None or record.status == "cancelled":
+                    raise JobCancelled(self.job_id)
+        except SQLAlchemyError as exc:
+            log.warning("job %s: progress not recorded (%s)", self.job_id, exc)

@@ -1,0 +1,158 @@
+"""The Celery task: run one recorded job with the same runner as ``inkmotion run``.
+
+``inkmotion.run_job(job_id)``: load the record, mark it running (attempts + 1, worker
+host), run :func:`inkmotion.jobs.runner.run_job` into ``<data>/jobs/<id>/artifacts``
+(written atomically by the runner), mark it succeeded. A user error
+(:class:`~inkmotion.errors.InkmotionError`) marks the job failed once with its sentence;
+transient errors (database or broker connection) are retried with exponential backoff; a
+cancelled job is not run. A redelivered job (its worker died) starts again from scratch:
+the killed attempt left only a ``artifacts.partial-*`` folder, which is removed, so the
+job ends with exactly one result set.
+"""
+
+from __future__ import annotations
+
+import logging
+import random
+import shutil
+import socket
+import time
+import traceback
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from celery.exceptions import SoftTimeLimitExceeded
+
+from inkmotion.workers.app import TASK_NAME, app
+from inkmotion.workers.progress import JobCancelled, StoreProgressObserver
+
+log = logging.getLogger("inkmotion.workers")
+MAX_RETRIES = 6
+
+
+def transient_errors() -> tuple[type[BaseException], ...]:
+    """Errors worth retrying: the database or the broker was briefly unreachable."""
+    import kombu.exceptions
+    import redis.exceptions
+    import sqlalchemy.exc
+
+    return (sqlalchemy.exc.OperationalError, sqlalchemy.exc.InterfaceError,
+            sqlalchemy.exc.DisconnectionError, redis.exceptions.ConnectionError,
+            redis.exceptions.TimeoutError, kombu.exceptions.OperationalError,
+            ConnectionError, TimeoutError)
+
+
+@contextmanager
+def job_log(path: Path) -> Iterator[None]:
+    """Append the worker's ``inkmotion`` log lines to the job's ``job.log`` meanwhile."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handler = logging.FileHandler(path, encoding="utf-8")
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    logger = logging.getLogger("inkmotion")
+    logger.addHandler(handler)
+    previous = logger.level
+    if logger.getEffectiveLevel() > logging.INFO:
+        logger.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(previous)
+        handler.close()
+
+
+def clean_stale_attempts(artifacts: Path) -> None:
+    """Remove staging leftovers (``artifacts.partial-*``, ``artifacts.old-*``) of attempts
+    that were killed; never the complete ``artifacts`` folder itself."""
+    for stale in artifacts.parent.glob(f"{artifacts.name}.*-*"):
+        shutil.rmtree(stale, ignore_errors=True)
+
+
+def _worker_host(task: Any) -> str:
+    return getattr(task.request, "hostname", None) or socket.gethostname()
+
+
+@app.task(name=TASK_NAME, bind=True, max_retries=MAX_RETRIES)
+def run_job_task(self: Any, job_id: str) -> str:
+    """Run the recorded job ``job_id``; returns its final status."""
+    from inkmotion.settings import load_settings
+
+    settings = load_settings()
+    try:
+        return _run(self, job_id, settings)
+    except transient_errors() as exc:
+        delay = min(60.0, 2.0 ** self.request.retries) * (0.5 + random.random())
+        log.warning("job %s: transient error (%s); retry in %.1f s", job_id, exc, delay)
+        raise self.retry(exc=exc, countdown=delay) from exc
+
+
+def _run(task: Any, job_id: str, settings: Any) -> str:
+    from inkmotion import store
+    from inkmotion.errors import InkmotionError
+
+    db = settings.db_url
+    record = store.get_job(job_id, db)
+    if record is None:
+        log.error("job %s: no such record in %s; dropped", job_id, db)
+        return "missing"
+    if record.finished:
+        log.info("job %s is already %s; not run", job_id, record.status)
+        return record.status
+    host = _worker_host(task)
+    if not store.mark_running(job_id, host, db):
+        return "cancelled"
+    job_dir = settings.job_dir(job_id)
+    artifacts = job_dir / "artifacts"
+    with job_log(job_dir / "job.log"):
+        attempt = (store.get_job(job_id, db) or record).attempts
+        log.info("job %s: attempt %d on %s", job_id, attempt, host)
+        clean_stale_attempts(artifacts)
+        if (artifacts / "report.json").is_file():
+            # a previous attempt completed the artifacts but died before recording it
+            log.info("job %s: artifacts already complete from an earlier attempt", job_id)
+            store.mark_succeeded(job_id, str(artifacts), db)
+            return "succeeded"
+        started = time.perf_counter()
+        try:
+            _execute(job_id, record.spec, artifacts, db)
+        except JobCancelled:
+            log.info("job %s: cancelled while running; stopped", job_id)
+            return "cancelled"
+        except InkmotionError as exc:
+            log.error("job %s failed: %s", job_id, exc)
+            store.mark_failed(job_id, str(exc), db)
+            return "failed"
+        except SoftTimeLimitExceeded:
+            msg = (f"The job ran past the time limit of {settings.soft_time_limit} s; "
+                   "reduce --steps or raise INKMOTION_SOFT_TIME_LIMIT.")
+            log.error("job %s failed: %s", job_id, msg)
+            store.mark_failed(job_id, msg, db)
+            return "failed"
+        except transient_errors():
+            raise
+        except Exception as exc:
+            log.error("job %s crashed:\n%s", job_id, traceback.format_exc())
+            store.mark_failed(job_id, f"Internal error {type(exc).__name__}: {exc} "
+                                      f"(see `inkmotion jobs logs {job_id}`).", db)
+            return "failed"
+        if not store.mark_succeeded(job_id, str(artifacts), db):
+            log.warning("job %s finished but its record was no longer running", job_id)
+            return "cancelled"
+        log.info("job %s succeeded in %.1f s", job_id, time.perf_counter() - started)
+        return "succeeded"
+
+
+def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str) -> dict:
+    from inkmotion.jobs.runner import run_job
+    from inkmotion.jobs.spec import JobSpec
+    from inkmotion.recording import RerunRecorder
+
+    spec = JobSpec.from_dict(spec_dict, source=f"job {job_id}")
+    recorder = RerunRecorder(image_every=spec.params.record_every, recording_id=job_id)
+    observers = [StoreProgressObserver(job_id, db), recorder]
+    try:
+        return run_job(spec, artifacts, observers=observers, progress=False)
+    finally:
+        recorder.close()
