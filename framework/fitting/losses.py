@@ -7,6 +7,7 @@ does not depend on the number of targets, DESIGN.md), averaged over paths.
 from __future__ import annotations
 
 import torch
+
 from inkmotion.sigma_lognormal.batch import PlanBatch
 
 

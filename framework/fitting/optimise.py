@@ -14,6 +14,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import torch
+
 from inkmotion.errors import InkmotionError
 from inkmotion.fitting.losses import canvas_cost, smoothing_cost
 from inkmotion.geometry.bezier import hermite_segments

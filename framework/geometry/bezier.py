@@ -8,6 +8,7 @@ Between samples t_k and t_k + dt the segment is
 from __future__ import annotations
 
 import torch
+
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.kinematics import batch_kinematics, uniform_times
 from inkmotion.sigma_lognormal.plan import MotorPlan

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from inkmotion.errors import InputError
 
 #: readers refuse inputs with more points than this (all strokes together)

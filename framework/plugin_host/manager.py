@@ -14,6 +14,7 @@ from importlib.metadata import entry_points
 from typing import Any
 
 import pluggy
+
 from inkmotion.errors import PluginError
 from inkmotion.plugin_host import hookspecs
 from inkmotion.plugin_host.hookspecs import KIND_HOOKS, PROJECT

@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 if TYPE_CHECKING:
     import torch
+
     from inkmotion.geometry.traces import Traces
     from inkmotion.sigma_lognormal.plan import MotorPlan
 
