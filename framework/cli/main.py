@@ -38,7 +38,7 @@ out = Console()
 
 def fail(exc: BaseException, code: int = 1) -> None:
     """Report a user-caused error in one sentence, no traceback, and exit."""
-    err.print(f"[bold red]error:[/] {exc}", highlight=False)
+    err.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
     raise typer.Exit(code)
 
 
@@ -190,5 +190,5 @@ def main() -> None:
     try:
         app()
     except InkmotionError as exc:  # a last guard: user errors never show a traceback
-        err.print(f"[bold red]error:[/] {exc}", highlight=False)
+        err.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
         sys.exit(1)

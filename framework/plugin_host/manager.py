@@ -9,6 +9,7 @@ fails to import is recorded as broken and skipped; ``inkmotion plugins`` reports
 from __future__ import annotations
 
 import functools
+import warnings
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import Any
@@ -41,9 +42,15 @@ class PluginHost:
         self.pm.add_hookspecs(hookspecs)
         self.broken: list[PluginInfo] = []
         self._origins: dict[int, str] = {}
+        self._by_kind: dict[str, dict[str, Any]] = {}
 
     def load_entry_points(self, group: str = ENTRY_POINT_GROUP) -> None:
-        """Import and register every module of the entry-point group; skip broken ones."""
+        """Import and register every module of the entry-point group.
+
+        A module that fails to import, or whose hooks do not match the specs (a misspelt
+        hook name, wrong arguments), is recorded as broken with the reason and skipped,
+        with a warning, so one bad third-party plugin cannot take the command line down.
+        """
         for ep in sorted(entry_points(group=group), key=lambda e: e.name):
             dist = ep.dist.name if ep.dist is not None else "?"
             origin = f"{dist} ({ep.value})"
@@ -53,31 +60,40 @@ class PluginHost:
             except Exception as exc:  # a broken plugin must not take the host down
                 error = f"{type(exc).__name__}: {exc}"
                 self.broken.append(PluginInfo("?", ep.name, origin, "failed to load", error))
-        self.pm.check_pending()
+                warnings.warn(f"inkmotion plugin {ep.name!r} from {origin} was skipped: {error}",
+                              stacklevel=2)
 
     def register(self, module: Any, name: str | None = None, origin: str = "local") -> None:
-        """Register a plugin module or object (signatures are verified by pluggy)."""
+        """Register a plugin module or object; its hooks are verified against the specs
+        (pluggy checks the arguments, ``check_pending`` rejects hooks with no spec)."""
         try:
             self.pm.register(module, name=name)
         except pluggy.PluginValidationError as exc:
             raise PluginError(f"Plugin {name or module!r} has an invalid hook: {exc}") from exc
+        try:
+            self.pm.check_pending()
+        except pluggy.PluginValidationError as exc:
+            self.pm.unregister(module)
+            raise PluginError(f"Plugin {name or module!r} implements a hook that does not "
+                              f"exist: {exc}") from exc
         self._origins[id(module)] = origin
-        self.plugins.cache_clear()
+        self._by_kind.clear()
 
-    @functools.cache  # noqa: B019 - one host per process
     def plugins(self, kind: str) -> dict[str, Any]:
-        """All plugin objects of ``kind``, by name."""
+        """All plugin objects of ``kind``, by name (collected once per registration state)."""
         if kind not in KIND_HOOKS:
             raise PluginError(
                 f"Unknown plugin kind {kind!r}; kinds are: {', '.join(sorted(KIND_HOOKS))}."
             )
-        hook = getattr(self.pm.hook, KIND_HOOKS[kind])
-        found: dict[str, Any] = {}
-        for impl in hook.get_hookimpls():
-            for obj in impl.function() or []:
-                obj._inkmotion_origin = self._origins.get(id(impl.plugin), "local")
-                found[obj.name] = obj
-        return found
+        if kind not in self._by_kind:
+            hook = getattr(self.pm.hook, KIND_HOOKS[kind])
+            found: dict[str, Any] = {}
+            for impl in hook.get_hookimpls():
+                for obj in impl.function() or []:
+                    obj._inkmotion_origin = self._origins.get(id(impl.plugin), "local")
+                    found[obj.name] = obj
+            self._by_kind[kind] = found
+        return self._by_kind[kind]
 
     def get(self, kind: str, name: str) -> Any:
         """The plugin object ``name`` of ``kind``; a clear error lists the available ones."""

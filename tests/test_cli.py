@@ -1,0 +1,122 @@
+"""End-to-end: the real command line in a subprocess."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).parent / "data"
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "gml"
+ARTIFACTS = {"plan.json", "input.json", "drawing.svg", "drawing.png", "overlay.png",
+             "speed.png", "trajectory.csv", "job.json", "report.json"}
+
+
+def inkmotion(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
+                          text=True, timeout=300, cwd=cwd, env=env)
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("fit") / "hi"
+    res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "15", "--size", "120",
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    assert str(out) in res.stdout.replace("\n", "")
+    return out
+
+
+def test_run_fit_writes_every_artifact(fitted: Path) -> None:
+    assert ARTIFACTS <= {p.name for p in fitted.iterdir()}
+    report = json.loads((fitted / "report.json").read_text())
+    for key in ("steps", "wall_s", "initial_loss", "final_loss", "initial_t_end", "final_t_end",
+                "chamfer_mean_px", "chamfer_max_px"):
+        assert key in report
+    assert report["steps"] == 15
+    assert report["final_t_end"] < report["initial_t_end"]
+    job = json.loads((fitted / "job.json").read_text())
+    assert job["spec"]["params"]["steps"] == 15 and "torch" in job["versions"]
+    traces = json.loads((fitted / "input.json").read_text())["traces"]
+    assert traces and all(len(s) >= 2 for s in traces)
+    header = (fitted / "trajectory.csv").read_text().splitlines()[0]
+    assert header == "path,t,x,y,vx,vy,ax,ay,speed"
+    assert not list(fitted.parent.glob("*.partial-*"))
+
+
+def test_run_config_reproduces_the_plan(fitted: Path, tmp_path: Path) -> None:
+    again = tmp_path / "again"
+    res = inkmotion("run", "--config", str(fitted / "job.json"), "--out", str(again),
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    a = json.loads((fitted / "plan.json").read_text())
+    b = json.loads((again / "plan.json").read_text())
+    assert a == b
+
+
+def test_plugins_lists_built_ins() -> None:
+    res = inkmotion("plugins", "--json")
+    assert res.returncode == 0, res.stderr
+    rows = {(r["kind"], r["name"]) for r in json.loads(res.stdout)}
+    assert {("renderer", "raster"), ("reader", "gml"), ("initialiser", "dce")} <= rows
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["run", "fit", "missing.gml"], "missing.gml: no such input file"),
+    (["run", "fit", str(DATA / "malformed.gml")], "malformed.gml"),
+    (["run", "fit", str(DATA / "nan.gml")], "nan.gml"),
+    (["run", "fit", str(DATA / "same_points.gml")], "same_points.gml"),
+    (["run", "fit", str(DATA / "one_point.gml")], "one_point.gml"),
+    (["run", "fit", str(DATA / "truncated.json")], "truncated.json"),
+    (["run", "fit", "text:hi", "--renderer", "diffvg"], "Unknown renderer plugin 'diffvg'"),
+    (["run", "fit", "text:hi", "--steps", "0"], "steps=0"),
+    (["run", "fit", "text:hi", "--device", "cuda:7"], "cuda:7"),
+])
+def test_bad_input_is_one_sentence_and_writes_nothing(tmp_path: Path, args: list[str],
+                                                      fragment: str) -> None:
+    if args[-1] == "cuda:7":
+        import torch
+
+        if torch.cuda.device_count() > 7:
+            pytest.skip("this machine has a cuda:7")
+    out = tmp_path / "out"
+    steps = [] if "--steps" in args else ["--steps", "3"]
+    res = inkmotion(*args, "--out", str(out), *steps, cwd=tmp_path)
+    assert res.returncode != 0
+    assert fragment in res.stderr
+    assert "Traceback" not in res.stderr + res.stdout
+    assert len([ln for ln in res.stderr.splitlines() if ln.strip()]) <= 2
+    assert not out.exists()
+    assert not list(tmp_path.glob("out*"))
+
+
+def test_bad_config_file(tmp_path: Path) -> None:
+    bad = tmp_path / "job.json"
+    bad.write_text(json.dumps({"kind": "paint", "input": "text:hi"}))
+    res = inkmotion("run", "--config", str(bad), "--out", str(tmp_path / "o"))
+    assert res.returncode != 0 and "Unknown job kind 'paint'" in res.stderr
+    bad.write_text(json.dumps({"kind": "fit", "input": "text:hi", "params": {"stepz": 3}}))
+    res = inkmotion("run", "--config", str(bad), "--out", str(tmp_path / "o"))
+    assert res.returncode != 0 and "unknown parameter(s) stepz" in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_help_has_examples() -> None:
+    res = inkmotion("run", "fit", "--help")
+    assert res.returncode == 0 and "inkmotion run fit text:hello" in res.stdout
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data is absent")
+def test_fit_a_real_tag_quickly(tmp_path: Path) -> None:
+    out = tmp_path / "tag"
+    res = inkmotion("run", "fit", str(SHARED / "49873.json"), "--out", str(out), "--steps", "30",
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert report["paths"] == 5
+    assert report["chamfer_mean_px"] < 1.5

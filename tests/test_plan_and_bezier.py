@@ -1,0 +1,98 @@
+"""plan.json round trip and errors; Hermite Bézier segments."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+import torch
+
+from inkmotion import Drawing, MotorPlan, bezier_segments, kinematics
+from inkmotion.errors import InputError
+
+F64 = torch.float64
+
+
+def sample_plan(dim: int = 2) -> MotorPlan:
+    g = torch.Generator().manual_seed(0)
+    pts = torch.cumsum(torch.randn(7, dim, generator=g, dtype=F64) * 20, 0)
+    if dim == 3:
+        pts[:, 2] = 2.0
+    plan = MotorPlan.from_points(pts, dtype=F64, width=2.5)
+    plan.delta.uniform_(-1, 1, generator=g)
+    plan.delta_t.uniform_(0.2, 0.9, generator=g)
+    return plan
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_plan_round_trip(tmp_path, dim: int) -> None:
+    plan = sample_plan(dim)
+    plan.save(tmp_path / "plan.json", canvas=(300, 200))
+    loaded = MotorPlan.load(tmp_path / "plan.json")
+    torch.testing.assert_close(loaded.points.double(), plan.points, atol=1e-4, rtol=0)
+    assert loaded.width == 2.5
+    assert float(loaded.end_time) == pytest.approx(float(plan.end_time), rel=1e-5)
+    data = json.loads((tmp_path / "plan.json").read_text())
+    assert data["version"] == 1 and data["canvas"] == {"width": 300, "height": 200}
+    assert set(data["paths"][0]) == {"points", "delta_t", "delta", "ac", "T", "width"}
+
+
+@pytest.mark.parametrize("content, fragment", [
+    ("{not json", "is not JSON"),
+    ('{"version": 7, "canvas": {"width": 1, "height": 1}, "paths": []}', "version"),
+    ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0]]}]}',
+     "not a valid plan.json"),
+    ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": []}', "at least one path"),
+    ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0], '
+     '[NaN, 1]], "delta_t": [1], "delta": [0], "ac": [0.01], "T": [0.8]}]}', "NaN"),
+])
+def test_bad_plan_files(tmp_path, content: str, fragment: str) -> None:
+    path = tmp_path / "plan.json"
+    path.write_text(content)
+    with pytest.raises(InputError, match=fragment) as info:
+        Drawing.load(path)
+    assert str(path) in str(info.value)
+
+
+def test_missing_plan_index(tmp_path) -> None:
+    sample_plan().save(tmp_path / "p.json")
+    with pytest.raises(InputError, match="no path 3"):
+        MotorPlan.load(tmp_path / "p.json", index=3)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_bezier_reproduces_samples_and_tangents(dim: int) -> None:
+    plan = sample_plan(dim)
+    seg = bezier_segments(plan)  # (5m, 4, D)
+    n = 5 * plan.m
+    assert seg.shape == (n, 4, dim)
+    dt = float(plan.end_time) / n
+    t = torch.arange(n + 1, dtype=F64) * dt
+    x, v, _ = kinematics(plan, t)
+    torch.testing.assert_close(seg[:, 0], x[:-1])
+    torch.testing.assert_close(seg[:, 3], x[1:])
+    # B'(0) = 3 (P1 − P0) in the segment parameter u = (t − t_k)/dt, so dx/dt = 3 (P1 − P0)/dt
+    torch.testing.assert_close(3 * (seg[:, 1] - seg[:, 0]) / dt, v[:-1])
+    torch.testing.assert_close(3 * (seg[:, 3] - seg[:, 2]) / dt, v[1:])
+    # Hermite accuracy: the curve's midpoint is near the trajectory's midpoint
+    mid = 0.125 * seg[:, 0] + 0.375 * seg[:, 1] + 0.375 * seg[:, 2] + 0.125 * seg[:, 3]
+    x_mid = kinematics(plan, t[:-1] + dt / 2).positions
+    length = (plan.points[1:] - plan.points[:-1]).norm(dim=1).sum()
+    assert float((mid - x_mid).norm(dim=1).max()) < 0.01 * float(length)
+
+
+def test_bezier_custom_sample_count() -> None:
+    plan = sample_plan()
+    assert bezier_segments(plan, n=17).shape == (17, 4, 2)
+
+
+def test_end_time_is_differentiable() -> None:
+    plan = sample_plan()
+    plan.delta_t.requires_grad_(True)
+    plan.end_time.backward()
+    g = plan.delta_t.grad
+    # T_end = Σ_{i≥2} Δt_i·T_i + T: ∂/∂Δt_1 = 0, ∂/∂Δt_i = T_i
+    assert float(g[0]) == 0.0
+    torch.testing.assert_close(g[1:], plan.T[1:])
+    assert math.isfinite(float(plan.end_time.detach()))

@@ -1,0 +1,101 @@
+"""The plugin host: built-ins through entry points, validation, broken plugins."""
+
+from __future__ import annotations
+
+import sys
+import textwrap
+
+import pytest
+
+import inkmotion
+from inkmotion.errors import PluginError
+from inkmotion.plugin_host import PluginHost, hookimpl, host
+
+BUILT_INS = {("reader", "gml"), ("reader", "svg"), ("reader", "text"),
+             ("initialiser", "dce"), ("image-loss", "mse"), ("renderer", "raster")}
+
+
+def test_built_ins_are_registered_through_entry_points() -> None:
+    rows = {(r.kind, r.name): r for r in host().table()}
+    assert BUILT_INS <= set(rows)
+    for key in BUILT_INS:
+        assert rows[key].origin.startswith("inkmotion (inkmotion.plugins.")
+        assert rows[key].description and "\n" not in rows[key].description
+    assert not host().broken, host().broken
+
+
+def test_plugin_lookup_and_unknown_name() -> None:
+    renderer = inkmotion.plugin("renderer", "raster")
+    assert renderer.name == "raster" and callable(renderer)
+    with pytest.raises(PluginError, match="Unknown renderer plugin 'nope'; available: raster"):
+        inkmotion.plugin("renderer", "nope")
+    with pytest.raises(PluginError, match="Unknown plugin kind"):
+        inkmotion.plugin("brush", "raster")
+
+
+def _dist(tmp_path, group: str, entries: dict[str, str]) -> None:
+    """A real installed distribution (dist-info on sys.path) declaring ``entries``."""
+    info = tmp_path / "thirdparty_plugins-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: thirdparty-plugins\n"
+                                   "Version: 0.1\n")
+    lines = "\n".join(f"{k} = {v}" for k, v in entries.items())
+    (info / "entry_points.txt").write_text(f"[{group}]\n{lines}\n")
+
+
+def test_third_party_and_broken_plugins(tmp_path, monkeypatch) -> None:
+    (tmp_path / "tp_good.py").write_text(textwrap.dedent('''
+        from inkmotion.plugin_host import hookimpl
+
+        class Blank:
+            name = "blank"
+            description = "Renders nothing (a third-party example)."
+            def __call__(self, segments, widths, height, width):
+                import torch
+                return torch.zeros(height, width)
+
+        @hookimpl
+        def inkmotion_renderers():
+            return [Blank()]
+    '''))
+    (tmp_path / "tp_broken.py").write_text("import not_a_real_module_xyz\n")
+    _dist(tmp_path, "inkmotion_test", {"good": "tp_good", "broken": "tp_broken"})
+    monkeypatch.syspath_prepend(str(tmp_path))
+    h = PluginHost()
+    with pytest.warns(UserWarning, match="broken"):
+        h.load_entry_points("inkmotion_test")
+    assert h.get("renderer", "blank")(None, None, 2, 3).shape == (2, 3)
+    assert [b.name for b in h.broken] == ["broken"]
+    assert "not_a_real_module_xyz" in h.broken[0].error
+    with pytest.raises(PluginError, match="failed to load"):
+        h.get("renderer", "broken")
+    for name in ("tp_good", "tp_broken"):
+        sys.modules.pop(name, None)
+
+
+def test_hook_signature_is_verified() -> None:
+    class Wrong:
+        @hookimpl
+        def inkmotion_renderers(self, unexpected_argument):  # not in the spec
+            return []
+
+    with pytest.raises(PluginError, match="invalid hook"):
+        PluginHost().register(Wrong(), name="wrong")
+
+
+def test_unknown_hook_fails_early(tmp_path, monkeypatch) -> None:
+    (tmp_path / "tp_typo.py").write_text(textwrap.dedent('''
+        from inkmotion.plugin_host import hookimpl
+
+        @hookimpl
+        def inkmotion_renderes():
+            return []
+    '''))
+    _dist(tmp_path, "inkmotion_typo", {"typo": "tp_typo"})
+    monkeypatch.syspath_prepend(str(tmp_path))
+    h = PluginHost()
+    with pytest.warns(UserWarning, match="typo"):
+        h.load_entry_points("inkmotion_typo")
+    assert [b.name for b in h.broken] == ["typo"]
+    assert "inkmotion_renderes" in h.broken[0].error
+    sys.modules.pop("tp_typo", None)
