@@ -74,7 +74,12 @@ class Objective:
         kin = batch_kinematics(batch, times, counts)
         segments, seg_path = hermite_segments(kin.positions, kin.velocities, counts, dt)
         widths = batch.widths[seg_path]
-        rendered = self.renderer(segments[..., :2].contiguous(), widths, self.height, self.width)
+        try:
+            rendered = self.renderer(segments[..., :2].contiguous(), widths, self.height,
+                                     self.width)
+        except ValueError as exc:  # e.g. NaN coordinates after a diverging step
+            raise InkmotionError(f"The renderer refused the trajectory ({exc}); lower the "
+                                 "learning rates or check the input.") from exc
         terms: dict[str, torch.Tensor] = {}
         image = rendered.new_zeros(())
         for name, fn in self.image_losses.items():
