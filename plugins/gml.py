@@ -50,11 +50,13 @@ from typing import Any
 import numpy as np
 
 from inkmotion.errors import InputError
+from inkmotion.geometry.input_file import MAX_FILE_BYTES as DEFAULT_MAX_FILE_BYTES
+from inkmotion.geometry.input_file import checked_input_file
 from inkmotion.geometry.traces import MAX_POINTS, Traces
 from inkmotion.plugin_host import hookimpl
 
 #: files larger than this are refused before parsing (bytes)
-MAX_FILE_BYTES = 50 * 1024 * 1024
+MAX_FILE_BYTES = DEFAULT_MAX_FILE_BYTES
 
 _SUFFIXES = {".gml", ".json", ".jsonp", ".js"}
 _JSONP = re.compile(r"^\s*[A-Za-z_$][\w$.]*\s*\(\s*(?P<body>.*?)\s*\)\s*;?\s*$", re.DOTALL)
@@ -130,18 +132,7 @@ def read_gml(source: str) -> Traces:
 
 
 def _read_bytes(source: str) -> bytes:
-    path = Path(source)
-    if not path.is_file():
-        raise InputError(f"{source}: no such file; check the path.")
-    size = path.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise InputError(
-            f"{source}: the file is {size / 2**20:.0f} MB, more than the "
-            f"{MAX_FILE_BYTES // 2**20} MB limit; simplify the drawing or split it."
-        )
-    if size == 0:
-        raise InputError(f"{source}: the file is empty; give a GML file that holds a drawing.")
-    return path.read_bytes()
+    return checked_input_file(source, "a GML drawing", MAX_FILE_BYTES).read_bytes()
 
 
 def _parse_text(text: str, source: str) -> list[_Tag]:

@@ -19,11 +19,13 @@ from typing import Any
 import numpy as np
 
 from inkmotion.errors import InputError
+from inkmotion.geometry.input_file import MAX_FILE_BYTES as DEFAULT_MAX_FILE_BYTES
+from inkmotion.geometry.input_file import checked_input_file
 from inkmotion.geometry.traces import MAX_POINTS, Traces
 from inkmotion.plugin_host import hookimpl
 
 #: files larger than this are refused before parsing (bytes)
-MAX_FILE_BYTES = 50 * 1024 * 1024
+MAX_FILE_BYTES = DEFAULT_MAX_FILE_BYTES
 #: flattening tolerance as a fraction of the drawing's bounding-box diagonal
 FLATNESS = 2e-4
 #: deepest subdivision per curve segment (2**MAX_DEPTH intervals at most)
@@ -47,17 +49,7 @@ class SvgReader:
 
 def read_svg(source: str) -> Traces:
     """Read an SVG file into validated :class:`Traces` in user units (y down)."""
-    path = Path(source)
-    if not path.is_file():
-        raise InputError(f"{source}: no such file; check the path.")
-    size = path.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise InputError(
-            f"{source}: the file is {size / 2**20:.0f} MB, more than the "
-            f"{MAX_FILE_BYTES // 2**20} MB limit; simplify the drawing or split it."
-        )
-    if size == 0:
-        raise InputError(f"{source}: the file is empty; give an SVG file that holds paths.")
+    path = checked_input_file(source, "SVG paths", MAX_FILE_BYTES)
     try:
         import svgelements as se
 

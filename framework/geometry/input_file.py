@@ -1,0 +1,28 @@
+"""Checks every file reader makes before parsing: it exists, is not empty, is not huge."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from inkmotion.errors import InputError
+
+#: readers refuse input files larger than this
+MAX_FILE_BYTES = 50 * 1024 * 1024
+
+
+def checked_input_file(source: str, holds: str, limit: int | None = None) -> Path:
+    """The path of ``source`` after the common checks; ``holds`` completes the empty-file
+    hint ("give a GML file that holds {holds}"). ``limit`` overrides MAX_FILE_BYTES."""
+    path = Path(source)
+    limit = MAX_FILE_BYTES if limit is None else limit
+    if not path.is_file():
+        raise InputError(f"{source}: no such file; check the path.")
+    size = path.stat().st_size
+    if size > limit:
+        raise InputError(
+            f"{source}: the file is {size / 2**20:.0f} MB, more than the "
+            f"{limit // 2**20} MB limit; simplify the drawing or split it."
+        )
+    if size == 0:
+        raise InputError(f"{source}: the file is empty; give a file that holds {holds}.")
+    return path
