@@ -134,7 +134,7 @@ def test_gradients_finite(delta: float) -> None:
     plan = make_plan(6, 3, delta, seed=4)
     for name in ("points", "delta_t", "delta", "ac"):
         getattr(plan, name).requires_grad_(True)
-    t = torch.linspace(0, float(plan.end_time), 100, dtype=F64)
+    t = torch.linspace(0, float(plan.end_time.detach()), 100, dtype=F64)
     x, v, a = kinematics(plan, t)
     (x.sum() + v.sum() + a.sum() + plan.end_time).backward()
     for name in ("points", "delta_t", "delta", "ac"):

@@ -19,7 +19,7 @@ from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 from celery import Celery
-from kombu import Queue
+from kombu import Exchange, Queue
 
 from inkmotion.settings import Settings, load_settings
 
@@ -82,8 +82,11 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         "worker_cancel_long_running_tasks_on_connection_loss": True,
         "task_soft_time_limit": settings.soft_time_limit,
         "task_time_limit": settings.time_limit,
-        "task_queues": [Queue(q, routing_key=q) for q in QUEUES],
+        "task_queues": [Queue(q, Exchange("inkmotion", "direct"), routing_key=q)
+                        for q in QUEUES],
         "task_default_queue": "optimise",
+        "task_default_exchange": "inkmotion",
+        "task_default_routing_key": "optimise",
         "task_routes": {TASK_NAME: {"queue": "optimise"}},
     }
     ssl_opts = broker_ssl_options(settings.broker_url)

@@ -83,9 +83,25 @@ def run_job_task(self: Any, job_id: str) -> str:
     try:
         return _run(self, job_id, settings)
     except transient_errors() as exc:
+        if self.request.retries >= MAX_RETRIES:
+            _give_up(job_id, settings, exc)
+            return "failed"
         delay = min(60.0, 2.0 ** self.request.retries) * (0.5 + random.random())
         log.warning("job %s: transient error (%s); retry in %.1f s", job_id, exc, delay)
         raise self.retry(exc=exc, countdown=delay) from exc
+
+
+def _give_up(job_id: str, settings: Any, exc: BaseException) -> None:
+    """Retries exhausted: record the failure if the database lets us."""
+    from inkmotion import store
+
+    log.error("job %s: giving up after %d retries (%s)", job_id, MAX_RETRIES, exc)
+    try:
+        store.mark_failed(job_id, f"The job store or broker stayed unreachable after "
+                                  f"{MAX_RETRIES} retries ({type(exc).__name__}); "
+                                  "check the services and submit it again.", settings.db_url)
+    except Exception:  # the database itself is down: the record stays as it was
+        log.exception("job %s: could not record the failure", job_id)
 
 
 def _run(task: Any, job_id: str, settings: Any) -> str:
@@ -150,6 +166,9 @@ def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str) -> dict:
     from inkmotion.recording import RerunRecorder
 
     spec = JobSpec.from_dict(spec_dict, source=f"job {job_id}")
+    local = artifacts.parent / "input" / Path(spec.input).name
+    if not spec.input.startswith("text:") and not Path(spec.input).exists() and local.exists():
+        spec.input = str(local)  # the data directory is mounted elsewhere on this machine
     recorder = RerunRecorder(image_every=spec.params.record_every, recording_id=job_id)
     observers = [StoreProgressObserver(job_id, db), recorder]
     try:

@@ -11,6 +11,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from inkmotion.cli import spec_options as opts
 from inkmotion.errors import InkmotionError
 
 app = typer.Typer(
@@ -99,18 +100,19 @@ def run_main(
 def run_fit(
     input: Annotated[str, typer.Argument(help="GML/JSON/SVG file, or text:WORD.")],
     out_dir: Annotated[Path, typer.Option("--out", help="Output folder (written atomically).")],
-    steps: Annotated[int, typer.Option(help="Adam steps.")] = 300,
-    size: Annotated[int, typer.Option(help="Canvas longer side, px.")] = 350,
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
-    lambda_smooth: Annotated[float, typer.Option(
-        "--lambda", help="Weight λ of the smoothing (minimum-time) cost.")] = 70.0,
-    w_image: Annotated[float, typer.Option(help="Weight of the image loss.")] = 200.0,
-    width: Annotated[float, typer.Option(help="Stroke width, px.")] = 3.0,
-    dce_threshold: Annotated[float, typer.Option(help="DCE relevance threshold.")] = 1.0,
-    initialiser: Annotated[str, typer.Option(help="Initialiser plugin.")] = "dce",
-    renderer: Annotated[str, typer.Option(help="Renderer plugin.")] = "raster",
-    loss: Annotated[list[str], typer.Option(help="Image-loss plugin (repeatable).")] = ["mse"],  # noqa: B006
-    device: Annotated[str, typer.Option(help="cpu, cuda or auto.")] = "cpu",
+    config: opts.ConfigOpt = None,
+    steps: opts.StepsOpt = None,
+    size: opts.SizeOpt = None,
+    seed: opts.SeedOpt = None,
+    lambda_smooth: opts.LambdaOpt = None,
+    w_image: opts.WImageOpt = None,
+    width: opts.WidthOpt = None,
+    dce_threshold: opts.DceOpt = None,
+    initialiser: opts.InitialiserOpt = None,
+    renderer: opts.RendererOpt = None,
+    loss: opts.LossOpt = None,
+    device: opts.DeviceOpt = None,
+    record_every: opts.RecordEveryOpt = None,
     record: Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")] = True,
 ) -> None:
     """Fit a ΣΛ motion to a drawing (the paper's "fitting trajectories to an image").
@@ -120,16 +122,15 @@ def run_fit(
       inkmotion run fit text:hello --out results/hello
 
       inkmotion run fit ../shared/data/gml/49867.json --out results/49867 --steps 300
-    """
-    from inkmotion.jobs.spec import FitParams, JobSpec
 
+      inkmotion run fit tag.gml --out results/smoother --lambda 150 --size 500
+    """
     try:
-        spec = JobSpec(
-            kind="fit", input=input, initialiser=initialiser, renderer=renderer,
-            losses=list(loss), seed=seed, device=device,
-            params=FitParams(steps=steps, size=size, lambda_smooth=lambda_smooth,
-                             w_image=w_image, width=width, dce_threshold=dce_threshold),
-        ).validate()
+        spec = opts.spec_from_cli(
+            "fit", input, config=config, steps=steps, size=size, seed=seed,
+            lambda_smooth=lambda_smooth, w_image=w_image, width=width,
+            dce_threshold=dce_threshold, initialiser=initialiser, renderer=renderer, loss=loss,
+            device=device, record_every=record_every)
     except InkmotionError as exc:
         fail(exc)
     _execute(spec, out_dir, record)

@@ -192,6 +192,8 @@ def jobs_list(
         print(json.dumps([r.to_dict() for r in records], indent=1))
         return
     table = Table("id", "status", "kind", "input", "progress", "attempts", "worker", "created")
+    for column in table.columns[:2]:
+        column.no_wrap = True
     for r in records:
         style = STATUS_STYLE.get(r.status, "")
         progress = f"{r.step}/{r.total}" if r.total else ""

@@ -21,31 +21,31 @@ InputArg = Annotated[Optional[str], typer.Argument(  # noqa: UP045
 ConfigOpt = Annotated[Optional[Path], typer.Option(  # noqa: UP045
     "--config", help="A job.json (or spec JSON) to start from; flags override it.")]
 StepsOpt = Annotated[Optional[int], typer.Option(  # noqa: UP045
-    "--steps", help="Adam steps [default: 300].", show_default=False)]
+    "--steps", help="Adam steps \\[default: 300].", show_default=False)]
 SizeOpt = Annotated[Optional[int], typer.Option(  # noqa: UP045
-    "--size", help="Canvas longer side, px [default: 350].", show_default=False)]
+    "--size", help="Canvas longer side, px \\[default: 350].", show_default=False)]
 SeedOpt = Annotated[Optional[int], typer.Option(  # noqa: UP045
-    "--seed", help="Random seed [default: 0].", show_default=False)]
+    "--seed", help="Random seed \\[default: 0].", show_default=False)]
 LambdaOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
     "--lambda", "--lambda-smooth",
-    help="Weight λ of the smoothing (minimum-time) cost [default: 70].", show_default=False)]
+    help="Weight λ of the smoothing (minimum-time) cost \\[default: 70].", show_default=False)]
 WImageOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
-    "--w-image", help="Weight of the image loss [default: 200].", show_default=False)]
+    "--w-image", help="Weight of the image loss \\[default: 200].", show_default=False)]
 WidthOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
-    "--width", help="Stroke width, px [default: 3].", show_default=False)]
+    "--width", help="Stroke width, px \\[default: 3].", show_default=False)]
 DceOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
-    "--dce-threshold", help="DCE relevance threshold, px [default: 1].", show_default=False)]
+    "--dce-threshold", help="DCE relevance threshold, px \\[default: 1].", show_default=False)]
 InitialiserOpt = Annotated[Optional[str], typer.Option(  # noqa: UP045
-    "--initialiser", help="Initialiser plugin [default: dce].", show_default=False)]
+    "--initialiser", help="Initialiser plugin \\[default: dce].", show_default=False)]
 RendererOpt = Annotated[Optional[str], typer.Option(  # noqa: UP045
-    "--renderer", help="Renderer plugin [default: raster].", show_default=False)]
+    "--renderer", help="Renderer plugin \\[default: raster].", show_default=False)]
 LossOpt = Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
-    "--loss", help="Image-loss plugin, repeatable [default: mse].", show_default=False)]
+    "--loss", help="Image-loss plugin, repeatable \\[default: mse].", show_default=False)]
 DeviceOpt = Annotated[Optional[str], typer.Option(  # noqa: UP045
-    "--device", help="cpu, cuda or auto [default: cpu].", show_default=False)]
+    "--device", help="cpu, cuda or auto \\[default: cpu].", show_default=False)]
 RecordEveryOpt = Annotated[Optional[int], typer.Option(  # noqa: UP045
     "--record-every",
-    help="Rendered images into recording.rrd every k steps, 0 for none [default: 10].",
+    help="Rendered images into recording.rrd every k steps, 0 for none \\[default: 10].",
     show_default=False)]
 
 

@@ -64,8 +64,11 @@ def _migration_lock(url: str) -> Iterator[None]:
 
 def upgrade(engine: Engine, revision: str = "head") -> None:
     """Run ``alembic upgrade <revision>`` on ``engine``'s database."""
+    import logging
+
     from alembic import command
 
+    logging.getLogger("alembic").setLevel(logging.WARNING)  # no INFO chatter per process
     url = engine.url.render_as_string(hide_password=False)
     with _migration_lock(url), engine.begin() as conn:
         if conn.dialect.name == "postgresql":

@@ -1,0 +1,179 @@
+"""The distributed path with real parts: redis-server, Celery worker subprocesses, the
+SQLite job store and the real ``inkmotion`` command line (fixtures in service_fixtures)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from service_fixtures import inkmotion_cli, wait_for
+
+from inkmotion import store
+
+pytestmark = pytest.mark.services
+
+DATA = Path(__file__).parent / "data"
+TINY = ["--steps", "4", "--size", "64"]
+ARTIFACTS = {"plan.json", "input.json", "drawing.svg", "drawing.png", "overlay.png",
+             "speed.png", "trajectory.csv", "job.json", "report.json", "recording.rrd"}
+
+
+def submit(*args: str) -> list[str]:
+    res = inkmotion_cli("submit", "fit", *args, "--json")
+    assert res.returncode == 0, res.stderr
+    return [j["id"] for j in json.loads(res.stdout)]
+
+
+def wait_succeeded(*ids: str, timeout: float = 120) -> None:
+    res = inkmotion_cli("jobs", "wait", *ids, "--timeout", str(timeout), "--quiet",
+                        timeout=timeout + 30)
+    assert res.returncode == 0, res.stderr
+
+
+def assert_one_result_set(record: store.JobRecord, data_dir: Path) -> Path:
+    artifacts = data_dir / "jobs" / record.id / "artifacts"
+    assert record.artifact_dir == str(artifacts)
+    assert ARTIFACTS <= {p.name for p in artifacts.iterdir()}
+    siblings = sorted(p.name for p in artifacts.parent.iterdir())
+    assert siblings == ["artifacts", "job.log"] or siblings == ["artifacts", "input", "job.log"]
+    return artifacts
+
+
+def test_submit_runs_to_success_with_record_and_artifacts(workers, service_env):
+    (job_id,) = submit("text:hi", *TINY)
+    wait_succeeded(job_id)
+    r = store.get_job(job_id)
+    assert (r.status, r.attempts, r.step, r.total, r.kind, r.queue) == (
+        "succeeded", 1, 4, 4, "fit", "optimise")
+    assert r.worker_host.split("@")[0] in {"w1", "w2"}
+    assert r.started_at >= r.created_at and r.finished_at >= r.started_at
+    assert r.losses and "total" in r.losses and r.t_end > 0
+    artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
+    report = json.loads((artifacts / "report.json").read_text())
+    assert report["steps"] == 4
+
+    shown = inkmotion_cli("jobs", "show", job_id[:8], "--json")
+    assert shown.returncode == 0 and json.loads(shown.stdout)["status"] == "succeeded"
+    listed = inkmotion_cli("jobs", "list", "--json")
+    assert job_id in {j["id"] for j in json.loads(listed.stdout)}
+    logs = inkmotion_cli("jobs", "logs", job_id)
+    assert "attempt 1" in logs.stdout and "succeeded" in logs.stdout
+    view = inkmotion_cli("view", job_id, env={"DISPLAY": "", "WAYLAND_DISPLAY": ""})
+    assert view.returncode == 0 and str(artifacts / "recording.rrd") in view.stdout
+
+
+def test_recording_holds_one_entry_per_step(workers, service_env):
+    from inkmotion.recording import entity_paths, read_steps
+
+    (job_id,) = submit("text:ab", "--steps", "12", "--size", "64", "--record-every", "5")
+    wait_succeeded(job_id)
+    rrd = Path(store.get_job(job_id).artifact_dir) / "recording.rrd"
+    assert read_steps(rrd) == list(range(1, 13))  # t_end: once per step
+    assert read_steps(rrd, "losses/total") == list(range(1, 13))
+    assert read_steps(rrd, "rendered") == [1, 5, 10, 12]
+    paths = entity_paths(rrd)
+    assert {"/target", "/input/traces", "/rendered", "/strokes/0/trajectory",
+            "/strokes/0/targets", "/speed/0"} <= paths
+
+
+def test_file_input_is_copied_into_the_job(workers, service_env, tmp_path):
+    src = tmp_path / "tag.gml"
+    shutil.copy(DATA / "tag.gml", src)
+    (job_id, ) = submit(str(src), *TINY)
+    src.unlink()  # the worker reads the job's own copy
+    wait_succeeded(job_id)
+    r = store.get_job(job_id)
+    copy = Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "input" / "tag.gml"
+    assert r.spec["input"] == str(copy) and copy.read_bytes() == (DATA / "tag.gml").read_bytes()
+
+
+def test_batch_of_words_is_one_job_per_word(workers, tmp_path):
+    words = tmp_path / "words.txt"
+    words.write_text("ab\n\n# a comment\ncd\n")
+    ids = submit("--batch-words", str(words), *TINY)
+    assert len(ids) == 2
+    wait_succeeded(*ids)
+    assert [store.get_job(i).spec["input"] for i in ids] == ["text:ab", "text:cd"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["text:hi", "--steps", "0"], "steps=0"),
+    (["/no/such/file.gml"], "no such input file"),
+    (["text:hi", "--renderer", "nope"], "renderer"),
+    (["text:hi", "--size", "10"], "size=10"),
+])
+def test_invalid_spec_is_refused_before_queueing(service_env, args, message):
+    before = len(store.list_jobs(limit=None))
+    res = inkmotion_cli("submit", "fit", *args)
+    assert res.returncode == 1
+    assert message in res.stderr and "Traceback" not in res.stderr
+    assert res.stdout == ""
+    assert len(store.list_jobs(limit=None)) == before
+
+
+def test_input_above_the_size_limit_is_refused(service_env, tmp_path):
+    big = tmp_path / "big.gml"
+    shutil.copy(DATA / "tag.gml", big)
+    res = inkmotion_cli("submit", "fit", str(big), env={"INKMOTION_MAX_INPUT_MB": "0.0001"})
+    assert res.returncode == 1 and "input limit" in res.stderr
+
+
+def test_unknown_kind_is_refused(service_env):
+    res = inkmotion_cli("submit", "paint", "text:hi")
+    assert res.returncode == 1 and "Unknown job kind 'paint'" in res.stderr
+
+
+def test_broker_down_gives_one_sentence_and_records_nothing(service_env):
+    from service_fixtures import free_port
+
+    url = f"redis://127.0.0.1:{free_port()}/0"
+    before = len(store.list_jobs(limit=None))
+    res = inkmotion_cli("submit", "fit", "text:hi", env={"INKMOTION_BROKER_URL": url})
+    assert res.returncode == 1
+    assert f"Cannot reach the broker at {url}" in res.stderr
+    assert "redis-server" in res.stderr and "Traceback" not in res.stderr
+    assert len(store.list_jobs(limit=None)) == before
+    assert store.list_jobs("queued", limit=None) == []
+
+
+def _running(job_id: str, min_step: int = 5) -> store.JobRecord | None:
+    r = store.get_job(job_id)
+    return r if r.status == "running" and r.step >= min_step else None
+
+
+def test_cancel_a_running_job(workers, service_env):
+    (job_id,) = submit("text:hello", "--steps", "3000", "--size", "128")
+    wait_for(lambda: _running(job_id), 60)
+    res = inkmotion_cli("jobs", "cancel", job_id)
+    assert res.returncode == 0, res.stderr
+    log = Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "job.log"
+    wait_for(lambda: "cancelled while running" in log.read_text(), 30)
+    r = store.get_job(job_id)
+    assert r.status == "cancelled" and r.finished_at is not None
+    assert not (log.parent / "artifacts").exists()
+    assert list(log.parent.glob("artifacts*")) == []  # the staging folder was removed
+    assert inkmotion_cli("jobs", "wait", job_id, "-q").returncode == 1
+    again = inkmotion_cli("jobs", "cancel", job_id)
+    assert again.returncode == 1 and "already cancelled" in again.stderr
+
+
+def test_kill_9_of_a_worker_mid_job_another_worker_completes_it(workers, service_env):
+    """Celery's own acks_late test, with real processes: the job's worker is killed with
+    SIGKILL mid-run; Redis redelivers the unacknowledged job after the visibility timeout
+    and the other worker completes it, with exactly one result set."""
+    steps = 700
+    (job_id,) = submit("text:hello", "--steps", str(steps), "--size", "128")
+    first = wait_for(lambda: _running(job_id, min_step=20), 60)
+    victim = first.worker_host.split("@")[0]
+    workers.kill(victim)
+    wait_succeeded(job_id, timeout=150)
+    r = store.get_job(job_id)
+    assert r.attempts >= 2 and r.worker_host != first.worker_host
+    assert r.step == r.total == steps
+    artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
+    assert json.loads((artifacts / "report.json").read_text())["steps"] == steps
+    from inkmotion.recording import read_steps
+
+    assert read_steps(artifacts / "recording.rrd") == list(range(1, steps + 1))
