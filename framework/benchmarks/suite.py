@@ -17,7 +17,13 @@ TARGETS: dict[str, tuple[float, str]] = {
     "speedup": (3.0, "≥"),
     "fit_wall_s": (30.0, "≤"),
     "recording_ratio": (1.1, "≤"),
+    "queue_lost": (0, "≤"),
+    "queue_completed_twice": (0, "≤"),
 }
+
+#: run when no ``--only`` is given; the others (queue: it starts redis-server and worker
+#: subprocesses, a few minutes) run only when named
+DEFAULT_BENCHES = ("kinematics", "raster", "fit", "recording")
 
 
 def _benches(fit_input: str | None) -> dict[str, Callable[[], dict]]:
@@ -41,13 +47,19 @@ def _benches(fit_input: str | None) -> dict[str, Callable[[], dict]]:
 
         return bench_recording()
 
-    return {"kinematics": kinematics, "raster": raster, "fit": fit, "recording": recording}
+    def queue() -> dict:
+        from inkmotion.benchmarks.queue import bench_queue
+
+        return bench_queue()
+
+    return {"kinematics": kinematics, "raster": raster, "fit": fit, "recording": recording,
+            "queue": queue}
 
 
 def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
                    threads: int = 2, console: Console | None = None) -> dict:
-    """Run the chosen benchmarks (all by default) with ``threads`` torch threads; print a
-    table of figure, value and target; return the figures."""
+    """Run the chosen benchmarks (:data:`DEFAULT_BENCHES` by default) with ``threads``
+    torch threads; print a table of figure, value and target; return the figures."""
     console = console or Console()
     benches = _benches(fit_input)
     unknown = set(only or []) - set(benches)
@@ -61,7 +73,7 @@ def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
     figures: dict = {}
     try:
         for name, fn in benches.items():
-            if only and name not in only:
+            if name not in (only or DEFAULT_BENCHES):
                 continue
             with console.status(f"benchmark {name} …"):
                 figures.update(fn())

@@ -157,7 +157,9 @@ def plugins_cmd(
 @app.command("bench")
 def bench_cmd(
     only: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
-        "--only", help="Run only these: kinematics, raster, fit, recording.")] = None,
+        "--only",
+        help="Run only these: kinematics, raster, fit, recording (the default set), or "
+             "queue (opt-in: starts a local redis-server and 2 workers).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
         help="Input of the fit benchmark (default: ../shared 49867.json, else text:inkmotion).")
     ] = None,
@@ -165,7 +167,13 @@ def bench_cmd(
 ) -> None:
     """Print speed figures (kinematics, raster, a full fit, recording overhead).
 
-    Example: inkmotion bench --only kinematics --only raster
+    Examples:
+
+      inkmotion bench
+
+      inkmotion bench --only kinematics --only raster
+
+      inkmotion bench --only queue
     """
     from inkmotion.benchmarks.suite import run_benchmarks
 

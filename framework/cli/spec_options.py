@@ -28,7 +28,7 @@ SeedOpt = Annotated[Optional[int], typer.Option(  # noqa: UP045
     "--seed", help="Random seed \\[default: 0].", show_default=False)]
 LambdaOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
     "--lambda", "--lambda-smooth",
-    help="Weight λ of the smoothing (minimum-time) cost \\[default: 70].", show_default=False)]
+    help="Weight λ of the smoothing (minimum-time) cost \\[default: 20].", show_default=False)]
 WImageOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
     "--w-image", help="Weight of the image loss \\[default: 200].", show_default=False)]
 WidthOpt = Annotated[Optional[float], typer.Option(  # noqa: UP045
