@@ -39,7 +39,7 @@ def test_plan_round_trip(tmp_path, dim: int) -> None:
 
 
 @pytest.mark.parametrize("content, fragment", [
-    ("{not json", "is not JSON"),
+    ("{not json", "is not valid JSON"),
     ('{"version": 7, "canvas": {"width": 1, "height": 1}, "paths": []}', "version"),
     ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0]]}]}',
      "not a valid plan.json"),

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import SpecError
+from inkmotion.json_files import read_json
 
 KINDS = ("fit",)
 SPEC_VERSION = 1
@@ -104,13 +105,7 @@ class JobSpec:
 
     @classmethod
     def load(cls, path: str | Path) -> JobSpec:
-        try:
-            d = json.loads(Path(path).read_text())
-        except FileNotFoundError as exc:
-            raise SpecError(f"{path}: no such job file.") from exc
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise SpecError(f"{path}: is not valid JSON ({exc}).") from exc
-        return cls.from_dict(d, str(path))
+        return cls.from_dict(read_json(path, SpecError, "job file"), str(path))
 
     def validate(self, check_plugins: bool = True, check_input: bool = True) -> JobSpec:
         """Refuse a bad spec with one sentence; returns self for chaining."""

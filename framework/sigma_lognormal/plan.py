@@ -19,6 +19,7 @@ from pathlib import Path
 import torch
 
 from inkmotion.errors import InputError
+from inkmotion.json_files import read_json
 
 PLAN_FORMAT_VERSION = 1
 DEFAULT_T = 0.8
@@ -164,10 +165,4 @@ class Drawing:
 
     @classmethod
     def load(cls, path: str | Path) -> Drawing:
-        try:
-            d = json.loads(Path(path).read_text())
-        except FileNotFoundError as exc:
-            raise InputError(f"{path}: no such file.") from exc
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path}: is not JSON ({exc}).") from exc
-        return cls.from_dict(d, str(path))
+        return cls.from_dict(read_json(path, InputError, "plan file"), str(path))
