@@ -1,7 +1,6 @@
 """Output writers: SVG, PNG/overlay, trajectory CSV, speed plot, atomic staging."""
 
 import csv
-import json
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -14,7 +13,6 @@ import torch
 from inkmotion import MotorPlan, bezier_segments
 from inkmotion.outputs import (
     StagingDir,
-    write_json_atomic,
     write_overlay,
     write_png,
     write_speed_plot,
@@ -158,15 +156,3 @@ def test_staging_dir_exception_keeps_existing(tmp_path: Path) -> None:
         raise ValueError
     assert sorted(p.name for p in tmp_path.iterdir()) == ["job"]
     assert (final / "keep.txt").read_text() == "keep"
-
-
-def test_write_json_atomic(tmp_path: Path) -> None:
-    out = tmp_path / "report.json"
-    write_json_atomic(out, {"a": 1})
-    write_json_atomic(out, {"a": [1, 2]})
-    assert json.loads(out.read_text()) == {"a": [1, 2]}
-    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]
-    with pytest.raises(TypeError):
-        write_json_atomic(out, {"bad": object()})
-    assert json.loads(out.read_text()) == {"a": [1, 2]}
-    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]

@@ -1,4 +1,4 @@
-"""Atomic outputs: a staging directory renamed into place, and atomic JSON files.
+"""Atomic outputs: a staging directory renamed into place.
 
 A job writes its artifacts into ``DIR.partial-<random>`` next to the final ``DIR``;
 :meth:`StagingDir.commit` then renames it into place, so a reader sees either the old
@@ -11,14 +11,11 @@ the renames ``DIR`` is briefly absent (never partial). On an exception inside th
 
 from __future__ import annotations
 
-import json
 import os
 import secrets
 import shutil
-import tempfile
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 
 def _sibling(final: Path, tag: str) -> Path:
@@ -79,19 +76,3 @@ class StagingDir:
                 raise
         else:
             self.abort()
-
-
-def write_json_atomic(path: str | Path, obj: Any, indent: int | None = 1) -> None:
-    """Write ``obj`` as JSON to ``path`` atomically: a temporary file in the same folder,
-    flushed and fsynced, then ``os.replace`` onto ``path``."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(obj, f, indent=indent)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
