@@ -51,7 +51,7 @@ import numpy as np
 
 from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import MAX_FILE_BYTES as DEFAULT_MAX_FILE_BYTES
-from inkmotion.geometry.input_file import checked_input_file
+from inkmotion.geometry.input_file import checked_input_file, reader_boundary
 from inkmotion.geometry.traces import MAX_POINTS, Traces
 from inkmotion.plugin_host import hookimpl
 
@@ -119,16 +119,8 @@ def read_gml(source: str) -> Traces:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise InputError(f"{source}: the file is not UTF-8 text; save it as UTF-8 GML.") from exc
-    try:
-        tags = _parse_text(text, source)
-        return _to_traces(tags, source)
-    except InputError:
-        raise
-    except Exception as exc:  # the reader boundary: no raw parser error escapes
-        raise InputError(
-            f"{source}: the GML could not be read ({type(exc).__name__}: {exc}); "
-            "check that it is a complete GML file."
-        ) from exc
+    with reader_boundary(source, "GML", "check that it is a complete GML file."):
+        return _to_traces(_parse_text(text, source), source)
 
 
 def _read_bytes(source: str) -> bytes:

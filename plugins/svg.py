@@ -20,7 +20,7 @@ import numpy as np
 
 from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import MAX_FILE_BYTES as DEFAULT_MAX_FILE_BYTES
-from inkmotion.geometry.input_file import checked_input_file
+from inkmotion.geometry.input_file import checked_input_file, reader_boundary
 from inkmotion.geometry.traces import MAX_POINTS, Traces
 from inkmotion.plugin_host import hookimpl
 
@@ -50,18 +50,10 @@ class SvgReader:
 def read_svg(source: str) -> Traces:
     """Read an SVG file into validated :class:`Traces` in user units (y down)."""
     path = checked_input_file(source, "SVG paths", MAX_FILE_BYTES)
-    try:
+    with reader_boundary(source, "SVG", "check that it is a complete, well-formed SVG file."):
         import svgelements as se
 
-        svg = se.SVG.parse(str(path))
-        strokes = _flatten(svg, se, source)
-    except InputError:
-        raise
-    except Exception as exc:  # the reader boundary: no raw parser error escapes
-        raise InputError(
-            f"{source}: the SVG could not be read ({type(exc).__name__}: {exc}); "
-            "check that it is a complete, well-formed SVG file."
-        ) from exc
+        strokes = _flatten(se.SVG.parse(str(path)), se, source)
     if not strokes:
         raise InputError(
             f"{source}: the SVG holds no paths or shapes, so there is nothing to draw; "

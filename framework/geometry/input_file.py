@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from inkmotion.errors import InputError
@@ -26,3 +28,17 @@ def checked_input_file(source: str, holds: str, limit: int | None = None) -> Pat
     if size == 0:
         raise InputError(f"{source}: the file is empty; give a file that holds {holds}.")
     return path
+
+
+@contextmanager
+def reader_boundary(source: str, what: str, hint: str) -> Iterator[None]:
+    """The edge of a reader: any error other than :class:`InputError` inside becomes one
+    sentence naming ``source`` ("the {what} could not be read (...); {hint}")."""
+    try:
+        yield
+    except InputError:
+        raise
+    except Exception as exc:  # no raw parser error escapes a reader
+        raise InputError(
+            f"{source}: the {what} could not be read ({type(exc).__name__}: {exc}); {hint}"
+        ) from exc
