@@ -15,34 +15,16 @@ from dataclasses import dataclass, field
 
 import torch
 
-from inkmotion.errors import InkmotionError
-from inkmotion.fitting.losses import canvas_cost, smoothing_cost
-from inkmotion.geometry.bezier import hermite_segments
+from inkmotion.fitting.objective import Evaluation, Objective
 from inkmotion.jobs.observers import Observer, StepState, wants
 from inkmotion.jobs.spec import FitParams
 from inkmotion.sigma_lognormal.batch import PlanBatch
-from inkmotion.sigma_lognormal.kinematics import batch_kinematics, uniform_times
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 DELTA_T_RANGE = (0.1, 0.9)
 DELTA_RANGE = (-math.pi / 2, math.pi / 2)
 AC_RANGE = (1e-4, 0.1)
 
-Renderer = Callable[[torch.Tensor, torch.Tensor, int, int], torch.Tensor]
-ImageLoss = Callable[[torch.Tensor], torch.Tensor]
-
-
-@dataclass
-class Evaluation:
-    """One forward pass: the loss terms and what the observers may want to see."""
-
-    total: torch.Tensor
-    terms: dict[str, torch.Tensor]
-    t_end: torch.Tensor  # (P,)
-    rendered: torch.Tensor  # (H, W)
-    positions: torch.Tensor  # (N, D)
-    velocities: torch.Tensor  # (N, D)
-    counts: torch.Tensor  # (P,)
 
 
 @dataclass
@@ -56,45 +38,6 @@ class FitResult:
     wall_s: float
     steps: int
     history: list[dict[str, float]] = field(default_factory=list)
-
-
-class Objective:
-    """λ·mean_p(T_end/m + w_σ·VarΔt) + w_I·Σ image losses + w_c·canvas term."""
-
-    def __init__(self, renderer: Renderer, image_losses: dict[str, ImageLoss],
-                 canvas: tuple[int, int], params: FitParams) -> None:
-        self.renderer = renderer
-        self.image_losses = image_losses
-        self.width, self.height = canvas
-        self.p = params
-
-    def __call__(self, batch: PlanBatch) -> Evaluation:
-        times, counts, dt = uniform_times(batch, self.p.samples_per_move)
-        t_end = times[torch.cumsum(counts, 0) - 1]  # (P,) the last sample is T_end
-        kin = batch_kinematics(batch, times, counts)
-        segments, seg_path = hermite_segments(kin.positions, kin.velocities, counts, dt)
-        widths = batch.widths[seg_path]
-        try:
-            rendered = self.renderer(segments[..., :2].contiguous(), widths, self.height,
-                                     self.width)
-        except ValueError as exc:  # e.g. NaN coordinates after a diverging step
-            raise InkmotionError(f"The renderer refused the trajectory ({exc}); lower the "
-                                 "learning rates or check the input.") from exc
-        terms: dict[str, torch.Tensor] = {}
-        image = rendered.new_zeros(())
-        for name, fn in self.image_losses.items():
-            terms[name] = fn(rendered)
-            image = image + terms[name]
-        terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma)
-        terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
-        total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
-                 + self.p.w_canvas * terms["canvas"])
-        if not torch.isfinite(total):
-            raise InkmotionError(
-                "The optimisation produced a non-finite loss (NaN); lower the learning rates "
-                "or check the input for extreme coordinates."
-            )
-        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities, counts)
 
 
 def _cosine(step: int, total: int, final: float) -> float:

@@ -18,7 +18,8 @@ import numpy as np
 import torch
 
 from inkmotion.errors import SpecError
-from inkmotion.fitting.optimise import Objective, optimise
+from inkmotion.fitting.objective import Objective, Weights
+from inkmotion.fitting.optimise import optimise
 from inkmotion.geometry.bezier import bezier_segments
 from inkmotion.geometry.chamfer import chamfer
 from inkmotion.geometry.read import read_input
@@ -106,7 +107,9 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[Observer] = 
                           torch.full((len(target_segments),), params.width, dtype=dtype,
                                      device=device), canvas[1], canvas[0])
     losses = {name: plugins.get("image-loss", name).prepare(target) for name in spec.losses}
-    objective = Objective(renderer, losses, canvas, params)
+    objective = Objective(renderer, losses, canvas, Weights(
+        params.lambda_smooth, params.w_image, params.w_sigma, params.w_canvas,
+        params.samples_per_move))
 
     out_dir = Path(out_dir)
     with StagingDir(out_dir) as staging:
