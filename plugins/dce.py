@@ -31,13 +31,18 @@ from __future__ import annotations
 
 import heapq
 import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
 
-from inkmotion.geometry.traces import Traces
+from inkmotion.errors import SpecError
+from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
-from inkmotion.sigma_lognormal.plan import DEFAULT_WIDTH, MotorPlan
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import JobInputs
+    from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: default stop criterion in px·rad (see the module docstring)
 DEFAULT_THRESHOLD = 1.0
@@ -113,6 +118,13 @@ def dce(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
     return p[dce_indices(p, threshold)]
 
 
+@dataclass
+class DceOptions:
+    """Options of the 'dce' initialiser."""
+
+    threshold: float = param(DEFAULT_THRESHOLD, "DCE relevance threshold, px·rad.", minimum=0)
+
+
 class DceInitialiser:
     """One motor plan per stroke through the stroke's DCE salient points."""
 
@@ -121,21 +133,31 @@ class DceInitialiser:
         "Discrete curve evolution: one motor plan per stroke through its salient points "
         "(relevance: turning angle × harmonic mean arm length, px·rad; stop above `threshold`)."
     )
+    Options = DceOptions
 
     def __call__(
         self,
-        traces: Traces,
+        inputs: JobInputs,
         *,
+        width: float = 3.0,
+        dtype: Any = None,
+        device: Any = None,
         threshold: float = DEFAULT_THRESHOLD,
-        width: float = DEFAULT_WIDTH,
-        dtype: torch.dtype = torch.float32,
-        device: torch.device | str | None = None,
     ) -> list[MotorPlan]:
-        """Plans for every stroke of ``traces`` (validated first: degenerate strokes dropped)."""
+        """Plans for every stroke of ``inputs.traces`` (validated first: degenerate strokes
+        dropped)."""
+        import torch
+
+        from inkmotion.sigma_lognormal.plan import MotorPlan
+
+        if inputs.traces is None:
+            raise SpecError("The dce initialiser needs traces (a drawing input); use another "
+                            "initialiser for images or captions.")
         plans = []
-        for stroke in traces.validated().strokes:
+        for stroke in inputs.traces.validated().strokes:
             targets = dce(stroke, threshold)
-            plans.append(MotorPlan.from_points(targets, width=width, dtype=dtype, device=device))
+            plans.append(MotorPlan.from_points(targets, width=width, dtype=dtype or torch.float32,
+                                               device=device))
         return plans
 
 

@@ -106,7 +106,18 @@ class MultiscaleMse:
     def prepare(
         self, target: torch.Tensor, levels: int | None = None
     ) -> Callable[[torch.Tensor], torch.Tensor]:
-        """``loss(rendered (H, W)) -> scalar`` against ``target`` (H, W)."""
+        """``loss(rendered (H, W)) -> scalar`` against the reference image (H, W).
+
+        ``target`` is a :class:`~inkmotion.plugin_host.protocols.Reference` (its image is
+        used; a caption alone cannot be compared pixel by pixel) or the image tensor itself.
+        """
+        image = getattr(target, "image", target)
+        if image is None:
+            from inkmotion.errors import SpecError
+
+            raise SpecError("The mse image loss needs a target image, and this job has only "
+                            "a caption; use a caption loss such as clip-text.")
+        target = image
         h, w = target.shape[-2:]
         if levels is None:
             levels = default_levels(h, w)

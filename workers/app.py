@@ -23,16 +23,24 @@ from kombu import Exchange, Queue
 
 from inkmotion.settings import Settings, load_settings
 
-#: queue per job kind: optimisation (GPU-friendly) apart from robot simulation (CPU)
-QUEUES = ("optimise", "simulate")
-KIND_QUEUE = {"fit": "optimise", "tag": "optimise", "abstract": "optimise",
-              "evaluate": "optimise", "simulate": "simulate"}
+#: queues that always exist: optimisation (GPU-friendly) apart from robot simulation (CPU)
+BASE_QUEUES = ("optimise", "simulate")
 TASK_NAME = "inkmotion.run_job"
 
 
 def queue_for(kind: str) -> str:
-    """The queue a job of ``kind`` goes to (``fit`` -> ``optimise``)."""
-    return KIND_QUEUE.get(kind, "optimise")
+    """The queue a job of ``kind`` goes to: the one its job-kind plugin declares."""
+    from inkmotion.jobs.kind import job_kind
+
+    return str(job_kind(kind).queue)
+
+
+def known_queues() -> tuple[str, ...]:
+    """Every queue a worker may serve: the base queues and those the job kinds declare."""
+    from inkmotion.plugin_host import host
+
+    declared = {k.queue for k in host().plugins("job-kind").values()}
+    return tuple(dict.fromkeys([*BASE_QUEUES, *sorted(declared - set(BASE_QUEUES))]))
 
 
 def broker_ssl_options(url: str) -> dict[str, Any] | None:
@@ -83,7 +91,7 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         "task_soft_time_limit": settings.soft_time_limit,
         "task_time_limit": settings.time_limit,
         "task_queues": [Queue(q, Exchange("inkmotion", "direct"), routing_key=q)
-                        for q in QUEUES],
+                        for q in known_queues()],
         "task_default_queue": "optimise",
         "task_default_exchange": "inkmotion",
         "task_default_routing_key": "optimise",

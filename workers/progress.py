@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import time
 
-from inkmotion.jobs.observers import StepState
+from inkmotion.events import StepState
 
 log = logging.getLogger("inkmotion.workers")
 
@@ -37,7 +37,8 @@ class StoreProgressObserver:
             return
         self._last = now
         try:
-            ok = update_progress(self.job_id, state.step, state.total, dict(state.losses),
+            values = state.loss_values()  # one device read, every min_interval seconds
+            ok = update_progress(self.job_id, state.step, state.total, values,
                                  float(state.t_end), db_url=self.db_url)
             if not ok:
                 record = get_job(self.job_id, self.db_url)

@@ -7,7 +7,6 @@ is checked first, and a record whose publication fails is deleted again.
 from __future__ import annotations
 
 import shutil
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -50,30 +49,36 @@ def _short(exc: BaseException) -> str:
     return text[:160]
 
 
+def _input_files(spec: JobSpec) -> dict[str, Path]:
+    """The spec's inputs that are local files (not ``scheme:value`` sources nor text)."""
+    from inkmotion.jobs.kind import is_scheme, job_kind
+
+    forms = {i.name: i.form for i in job_kind(spec.kind).inputs}
+    return {name: Path(value) for name, value in spec.inputs.items()
+            if forms.get(name) != "text" and not is_scheme(value) and Path(value).is_file()}
+
+
 def check_input_size(spec: JobSpec, settings: Settings) -> None:
     """Refuse an input file above ``settings.max_input_bytes`` with one sentence."""
-    if spec.input.startswith("text:"):
-        return
-    size = Path(spec.input).stat().st_size
-    if size > settings.max_input_bytes:
-        raise InputError(
-            f"{spec.input}: {size / 2**20:.1f} MB is above the "
-            f"{settings.max_input_bytes / 2**20:.0f} MB input limit; shrink the file or "
-            "raise INKMOTION_MAX_INPUT_MB.")
+    for path in _input_files(spec).values():
+        size = path.stat().st_size
+        if size > settings.max_input_bytes:
+            raise InputError(
+                f"{path}: {size / 2**20:.1f} MB is above the "
+                f"{settings.max_input_bytes / 2**20:.0f} MB input limit; shrink the file or "
+                "raise INKMOTION_MAX_INPUT_MB.")
 
 
 def copy_input(spec: JobSpec, job_dir: Path, settings: Settings) -> JobSpec:
-    """A copy of ``spec`` whose input file lives in ``job_dir/input/`` (``text:`` inputs
-    are kept as they are). Refuses files above ``settings.max_input_bytes``."""
-    if spec.input.startswith("text:"):
-        return spec
+    """A copy of ``spec`` whose input files live in ``job_dir/input/`` (other inputs are
+    kept as they are). Refuses files above ``settings.max_input_bytes``."""
     check_input_size(spec, settings)
-    src = Path(spec.input)
-    dest = job_dir / "input" / src.name
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(src, dest)
-    out = replace(spec, params=replace(spec.params), losses=list(spec.losses))
-    out.input = str(dest.resolve())
+    out = spec.copy()
+    for name, src in _input_files(spec).items():
+        dest = job_dir / "input" / name / src.name
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(src, dest)
+        out.inputs[name] = str(dest.resolve())
     return out
 
 
@@ -84,25 +89,27 @@ def submit_specs(specs: list[JobSpec], settings: Settings | None = None) -> list
     spec is invalid or the broker is unreachable.
     """
     from inkmotion import store
-    from inkmotion.workers.app import TASK_NAME, app, queue_for
+    from inkmotion.jobs.kind import resolve
+    from inkmotion.workers.app import TASK_NAME, app
 
     settings = settings or load_settings()
+    resolved = [resolve(spec) for spec in specs]
     for spec in specs:
-        spec.validate()
         check_input_size(spec, settings)
     check_broker(settings)
     records: list[JobRecord] = []
     with _connection(settings) as conn:
-        for spec in specs:
+        for spec, job in zip(specs, resolved, strict=True):
             job_id = store.new_job_id()
             job_dir = settings.job_dir(job_id)
-            queue = queue_for(spec.kind)
+            queue = job.kind.queue
             record = None
             try:
                 stored = copy_input(spec, job_dir, settings)
                 record = store.create_job(stored.to_dict(), kind=spec.kind, queue=queue,
-                                          job_id=job_id, label=spec.input,
-                                          total=int(spec.params.steps), db_url=settings.db_url)
+                                          job_id=job_id, label=spec.label[:255],
+                                          total=int(job.kind.steps(job.params)),
+                                          db_url=settings.db_url)
                 app.send_task(TASK_NAME, args=[job_id], task_id=job_id, queue=queue,
                               connection=conn, retry=False)
             except Exception as exc:

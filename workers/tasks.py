@@ -1,7 +1,7 @@
 """The Celery task: run one recorded job with the same runner as ``inkmotion run``.
 
 ``inkmotion.run_job(job_id)``: load the record, mark it running (attempts + 1, worker
-host), run :func:`inkmotion.jobs.runner.run_job` into ``<data>/jobs/<id>/artifacts``
+host), run :func:`inkmotion.jobs.shell.run_job` into ``<data>/jobs/<id>/artifacts``
 (written atomically by the runner), mark it succeeded. A user error
 (:class:`~inkmotion.errors.InkmotionError`) marks the job failed once with its sentence;
 transient errors (database or broker connection) are retried with exponential backoff; a
@@ -132,7 +132,7 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
             return "succeeded"
         started = time.perf_counter()
         try:
-            _execute(job_id, record.spec, artifacts, db)
+            report = _execute(job_id, record.spec, artifacts, db)
         except JobCancelled:
             log.info("job %s: cancelled while running; stopped", job_id)
             return "cancelled"
@@ -153,7 +153,8 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
             store.mark_failed(job_id, f"Internal error {type(exc).__name__}: {exc} "
                                       f"(see `inkmotion jobs logs {job_id}`).", db)
             return "failed"
-        if not store.mark_succeeded(job_id, str(artifacts), db):
+        if not store.mark_succeeded(job_id, str(artifacts), db,
+                                    metrics=report.get("metrics")):
             log.warning("job %s finished but its record was no longer running", job_id)
             return "cancelled"
         log.info("job %s succeeded in %.1f s", job_id, time.perf_counter() - started)
@@ -161,17 +162,13 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
 
 
 def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str) -> dict:
-    from inkmotion.jobs.runner import run_job
+    from inkmotion.jobs.shell import run_job
     from inkmotion.jobs.spec import JobSpec
-    from inkmotion.recording import RerunRecorder
 
     spec = JobSpec.from_dict(spec_dict, source=f"job {job_id}")
-    local = artifacts.parent / "input" / Path(spec.input).name
-    if not spec.input.startswith("text:") and not Path(spec.input).exists() and local.exists():
-        spec.input = str(local)  # the data directory is mounted elsewhere on this machine
-    recorder = RerunRecorder(image_every=spec.params.record_every, recording_id=job_id)
-    observers = [StoreProgressObserver(job_id, db), recorder]
-    try:
-        return run_job(spec, artifacts, observers=observers, progress=False)
-    finally:
-        recorder.close()
+    for name, value in spec.inputs.items():
+        local = artifacts.parent / "input" / name / Path(value).name
+        if not Path(value).exists() and local.exists():
+            spec.inputs[name] = str(local)  # the data directory is mounted elsewhere here
+    return run_job(spec, artifacts, observers=[StoreProgressObserver(job_id, db)], record=True,
+                   recording_id=job_id)

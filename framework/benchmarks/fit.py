@@ -5,7 +5,7 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from inkmotion.jobs.spec import FitParams, JobSpec
+from inkmotion.jobs.spec import JobSpec
 
 
 def shared_dir() -> Path:
@@ -23,20 +23,26 @@ def default_fit_input() -> str:
     return str(tag) if tag.is_file() else "text:inkmotion"
 
 
-def bench_fit(input: str | None = None, steps: int = 300) -> dict[str, float | str]:
-    """Wall time of a full fit (default settings) and its quality figures."""
-    from inkmotion.jobs.runner import run_job
+def bench_fit(input: str | None = None, steps: int = 300, size: int = 350,
+              device: str = "cpu") -> dict[str, float | str]:
+    """Wall time of a full fit (default settings) and its quality figures, with the plan's
+    size (lognormals) beside them."""
+    from inkmotion.jobs.kind import is_scheme
+    from inkmotion.jobs.shell import run_job
 
-    spec = JobSpec(kind="fit", input=input or default_fit_input(),
-                   params=FitParams(steps=steps))
+    source = input or default_fit_input()
+    spec = JobSpec(kind="fit", inputs={"drawing": source}, device=device,
+                   params={"steps": steps, "size": size})
     with tempfile.TemporaryDirectory() as tmp:
-        report = run_job(spec, Path(tmp) / "out", progress=False)
+        report = run_job(spec, Path(tmp) / "out")
+    suffix = "" if size == 350 else f"_{size}px"
     return {
-        "fit_input": Path(spec.input).name if not spec.input.startswith("text:") else spec.input,
+        "fit_input": source if is_scheme(source) else Path(source).name,
         "fit_steps": steps,
-        "fit_wall_s": report["wall_s"],
-        "fit_ms_per_step": 1e3 * report["fit_s"] / steps,
-        "fit_chamfer_mean_px": report["chamfer_mean_px"],
-        "fit_chamfer_max_px": report["chamfer_max_px"],
-        "fit_t_end_ratio": report["t_end_ratio"],
+        f"fit{suffix}_wall_s": report["wall_s"],
+        f"fit{suffix}_ms_per_step": 1e3 * report["fit_s"] / steps,
+        f"fit{suffix}_moves": report["moves"],
+        f"fit{suffix}_chamfer_mean_px": report["chamfer_mean_px"],
+        f"fit{suffix}_chamfer_max_px": report["chamfer_max_px"],
+        f"fit{suffix}_t_end_ratio": report["t_end_ratio"],
     }

@@ -67,7 +67,7 @@ def bench_queue(jobs: int = 20, workers: int = 2, steps: int = 50, size: int = 3
     docstring. Raises :class:`~inkmotion.errors.ServiceError` when ``redis-server`` is
     not installed."""
     from inkmotion import store
-    from inkmotion.cli.spec_options import spec_from_cli
+    from inkmotion.jobs.spec import JobSpec
     from inkmotion.settings import load_settings
     from inkmotion.workers.local import WorkerPool, redis_binary, start_redis
     from inkmotion.workers.submit import submit_specs
@@ -89,8 +89,8 @@ def bench_queue(jobs: int = 20, workers: int = 2, steps: int = 50, size: int = 3
             store.get_engine(settings.db_url)  # create the schema once, before the workers
             pool = WorkerPool(env, tmp / "logs")
             pool.ensure(tuple(f"w{i + 1}" for i in range(workers)))
-            specs = [spec_from_cli("fit", f"text:{WORDS[i % len(WORDS)]}", steps=steps,
-                                   size=size) for i in range(jobs)]
+            specs = [JobSpec("fit", {"drawing": f"text:{WORDS[i % len(WORDS)]}"}, device="cpu",
+                             params={"steps": steps, "size": size}) for i in range(jobs)]
             ids = [r.id for r in submit_specs(specs, settings)]
             deadline = time.monotonic() + timeout_s
             pending = set(ids)

@@ -12,8 +12,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from inkmotion.jobs.observers import StepState
-from inkmotion.jobs.spec import FitParams, JobSpec
+from inkmotion.events import StepState
+from inkmotion.jobs.spec import JobSpec
 
 
 class _StepClock:
@@ -36,13 +36,14 @@ class _TimedRecorder:
     """The recorder, with the time spent inside its ``on_step`` summed."""
 
     def __init__(self, record_every: int) -> None:
-        from inkmotion.recording import RerunRecorder
+        from inkmotion.recording.recorder import RerunRecorder
 
         self.inner = RerunRecorder(image_every=record_every)
         self.wants_image = self.inner.wants_image
         self.wants_geometry = self.inner.wants_geometry
         self.on_start = self.inner.on_start
         self.on_end = self.inner.on_end
+        self.close = self.inner.close
         self.spent = 0.0
         self.steps = 0
 
@@ -55,14 +56,14 @@ class _TimedRecorder:
 
 def _step_ms(spec: JobSpec, record: bool, folder: Path) -> tuple[float, float]:
     """(mean step ms, ms per step spent inside the recorder)."""
-    from inkmotion.jobs.runner import run_job
+    from inkmotion.jobs.shell import run_job
 
     clock = _StepClock()
     observers: list[object] = [clock]
-    recorder = _TimedRecorder(spec.params.record_every) if record else None
+    recorder = _TimedRecorder(spec.record_every) if record else None
     if recorder is not None:
         observers.insert(0, recorder)
-    run_job(spec, folder, observers=observers, progress=False)  # type: ignore[arg-type]
+    run_job(spec, folder, observers=observers)
     own = 1e3 * recorder.spent / max(recorder.steps, 1) if recorder else 0.0
     return clock.step_ms(), own
 
@@ -78,8 +79,9 @@ def bench_recording(input: str | None = None, steps: int = 60, size: int = 350,
     """
     from inkmotion.benchmarks.fit import default_fit_input
 
-    spec = JobSpec(kind="fit", input=input or default_fit_input(),
-                   params=FitParams(steps=steps, size=size, record_every=record_every))
+    spec = JobSpec(kind="fit", inputs={"drawing": input or default_fit_input()},
+                   device="cpu", record_every=record_every,
+                   params={"steps": steps, "size": size})
     off: list[float] = []
     on: list[tuple[float, float]] = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from inkmotion.cli import spec_options as opts
 from inkmotion.errors import InkmotionError
 
 app = typer.Typer(
@@ -22,17 +20,6 @@ app = typer.Typer(
     rich_markup_mode="rich",
     pretty_exceptions_enable=False,
 )
-run_app = typer.Typer(
-    help=(
-        "Run a job in this process (no services needed).\n\n"
-        "Examples:\n\n"
-        "  inkmotion run fit text:hello --out results/hello\n\n"
-        "  inkmotion run fit tag.gml --out results/tag --steps 300 --size 350\n\n"
-        "  inkmotion run --config results/tag/job.json --out results/again"
-    ),
-    no_args_is_help=False,
-)
-app.add_typer(run_app, name="run")
 err = Console(stderr=True)
 out = Console()
 
@@ -41,99 +28,6 @@ def fail(exc: BaseException, code: int = 1) -> None:
     """Report a user-caused error in one sentence, no traceback, and exit."""
     err.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
     raise typer.Exit(code)
-
-
-def _execute(spec: object, out_dir: Path, record: bool) -> None:
-    from inkmotion.jobs.runner import run_job
-
-    observers = []
-    if record:
-        try:
-            from inkmotion.recording import RerunRecorder
-        except ImportError:  # recording package not available
-            RerunRecorder = None  # noqa: N806
-        if RerunRecorder is not None:
-            observers.append(RerunRecorder(image_every=spec.params.record_every))  # type: ignore[attr-defined]
-    try:
-        report = run_job(spec, out_dir, observers=observers)  # type: ignore[arg-type]
-    except InkmotionError as exc:
-        fail(exc)
-    except KeyboardInterrupt:
-        err.print(f"interrupted; nothing was written to {out_dir}")
-        raise typer.Exit(130) from None
-    out.print(
-        f"[green]done[/] in {report['wall_s']:.1f} s: {report['paths']} paths, "
-        f"{report['moves']} lognormals, Chamfer {report['chamfer_mean_px']:.2f} px mean / "
-        f"{report['chamfer_max_px']:.1f} px max, T_end {report['t_end_ratio']:.2f}× initial"
-    )
-    out.print(f"results in [bold]{out_dir}[/] (plan.json, drawing.svg, overlay.png, speed.png, "
-              "report.json, ...)")
-
-
-@run_app.callback(invoke_without_command=True)
-def run_main(
-    ctx: typer.Context,
-    config: Annotated[Optional[Path], typer.Option(  # noqa: UP045 - typer needs Optional
-        "--config", help="A job.json (or spec JSON) to reproduce.")] = None,
-    out_dir: Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--out", help="Output folder for --config runs.")] = None,
-    record: Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")] = True,
-) -> None:
-    """Run a job in this process."""
-    if ctx.invoked_subcommand is not None:
-        return
-    if config is None or out_dir is None:
-        err.print(ctx.get_help())
-        fail(InkmotionError("give a subcommand (e.g. `inkmotion run fit INPUT --out DIR`) "
-                            "or --config job.json --out DIR."), code=2)
-    from inkmotion.jobs.spec import JobSpec
-
-    try:
-        spec = JobSpec.load(config)
-        spec.validate()
-    except InkmotionError as exc:
-        fail(exc)
-    _execute(spec, out_dir, record)
-
-
-@run_app.command("fit")
-def run_fit(
-    input: Annotated[str, typer.Argument(help="GML/JSON/SVG file, or text:WORD.")],
-    out_dir: Annotated[Path, typer.Option("--out", help="Output folder (written atomically).")],
-    config: opts.ConfigOpt = None,
-    steps: opts.StepsOpt = None,
-    size: opts.SizeOpt = None,
-    seed: opts.SeedOpt = None,
-    lambda_smooth: opts.LambdaOpt = None,
-    w_image: opts.WImageOpt = None,
-    width: opts.WidthOpt = None,
-    dce_threshold: opts.DceOpt = None,
-    initialiser: opts.InitialiserOpt = None,
-    renderer: opts.RendererOpt = None,
-    loss: opts.LossOpt = None,
-    device: opts.DeviceOpt = None,
-    record_every: opts.RecordEveryOpt = None,
-    record: Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")] = True,
-) -> None:
-    """Fit a ΣΛ motion to a drawing (the paper's "fitting trajectories to an image").
-
-    Examples:
-
-      inkmotion run fit text:hello --out results/hello
-
-      inkmotion run fit ../shared/data/gml/49867.json --out results/49867 --steps 300
-
-      inkmotion run fit tag.gml --out results/smoother --lambda 150 --size 500
-    """
-    try:
-        spec = opts.spec_from_cli(
-            "fit", input, config=config, steps=steps, size=size, seed=seed,
-            lambda_smooth=lambda_smooth, w_image=w_image, width=width,
-            dce_threshold=dce_threshold, initialiser=initialiser, renderer=renderer, loss=loss,
-            device=device, record_every=record_every)
-    except InkmotionError as exc:
-        fail(exc)
-    _execute(spec, out_dir, record)
 
 
 @app.command("plugins")
@@ -181,6 +75,15 @@ def bench_cmd(
         run_benchmarks(only or None, fit_input=fit_input, threads=threads, console=out)
     except InkmotionError as exc:
         fail(exc)
+
+
+def _register_run() -> None:
+    from inkmotion.cli.run import register
+
+    register(app)
+
+
+_register_run()
 
 
 def _register_services() -> None:

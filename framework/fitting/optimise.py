@@ -1,23 +1,26 @@
 """The optimiser loop: Adam on the motor plans through the differentiable renderer.
 
-Each step: ΣΛ kinematics on the fitting grid (n_p = 5·m_p) → Hermite Bézier segments →
-render → image losses; plus λ·L_smooth and the canvas term. Then an Adam step with
-per-parameter learning rates and a cosine decay, and the clamps Δt ∈ [0.1, 0.9],
-δ ∈ [−π/2, π/2], Ac ∈ [1e-4, 0.1] (DESIGN.md § Fitting defaults).
+Each step evaluates the :class:`~inkmotion.fitting.objective.Objective` (ΣΛ kinematics →
+Hermite Bézier segments → render → image losses + λ·L_smooth + canvas term), then takes an
+Adam step with per-parameter learning rates and a cosine decay, and applies the clamps
+Δt ∈ [0.1, 0.9], δ ∈ [−π/2, π/2], Ac ∈ [1e-4, 0.1] (DESIGN.md § Fitting defaults).
+
+No host synchronisation inside a step: loss terms stay 0-d tensors on the device and go to
+the observers as such (they read them when they show them); the loss is checked for NaN
+only every ``check_every`` steps and at the end, with one read of an accumulated flag.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import torch
 
+from inkmotion.errors import InkmotionError
+from inkmotion.events import StepState, scalars, wants
 from inkmotion.fitting.objective import Evaluation, Objective
-from inkmotion.jobs.observers import Observer, StepState, wants
-from inkmotion.jobs.spec import FitParams
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
@@ -25,6 +28,18 @@ DELTA_T_RANGE = (0.1, 0.9)
 DELTA_RANGE = (-math.pi / 2, math.pi / 2)
 AC_RANGE = (1e-4, 0.1)
 
+
+@dataclass(frozen=True)
+class OptimiserSettings:
+    """Adam settings of a fit (defaults: the authors', DESIGN.md § Fitting defaults)."""
+
+    steps: int = 300
+    lr_points: float = 2.0
+    lr_delta_t: float = 0.05
+    lr_delta: float = 0.1
+    lr_ac: float = 0.0  # 0 keeps Ac fixed
+    lr_final: float = 0.1  # cosine decay to this fraction
+    check_every: int = 25  # read the NaN flag from the device every k steps
 
 
 @dataclass
@@ -37,41 +52,59 @@ class FitResult:
     rendered: torch.Tensor  # (H, W) final
     wall_s: float
     steps: int
-    history: list[dict[str, float]] = field(default_factory=list)
 
 
-def _cosine(step: int, total: int, final: float) -> float:
+def cosine(step: int, total: int, final: float) -> float:
     """Learning-rate factor: cosine decay from 1 to ``final`` over ``total`` steps."""
     return final + (1.0 - final) * 0.5 * (1.0 + math.cos(math.pi * min(step, total) / total))
 
 
-def _floats(terms: dict[str, torch.Tensor], total: torch.Tensor) -> dict[str, float]:
-    out = {k: float(v.detach()) for k, v in terms.items()}
-    out["total"] = float(total.detach())
+def _terms(ev: Evaluation) -> dict[str, torch.Tensor]:
+    """Every loss term and the total, detached 0-d tensors (no synchronisation)."""
+    out = {k: v.detach() for k, v in ev.terms.items()}
+    out["total"] = ev.total.detach()
     return out
 
 
-def _state(step: int, total: int, ev: Evaluation, batch: PlanBatch, observers: Sequence[Observer],
-           terms: dict[str, float]) -> StepState:
-    state = StepState(step, total, terms, float(ev.t_end.detach().mean()))
-    if any(wants(o, "image", step) for o in observers):
-        state.rendered = ev.rendered.detach()
-    if any(wants(o, "geometry", step) for o in observers):
-        counts = ev.counts.tolist()
-        state.positions = list(torch.split(ev.positions.detach(), counts))
-        state.speeds = list(torch.split(ev.velocities.detach()[:, :2].norm(dim=1), counts))
-        state.targets = list(torch.split(batch.points.detach(), (batch.moves + 1).tolist()))
-    return state
+def _not_finite() -> InkmotionError:
+    return InkmotionError("The optimisation produced a non-finite loss (NaN); lower the learning "
+                          "rates or check the input for extreme coordinates.")
+
+
+class _StepStates:
+    """Builds each step's :class:`StepState`, with heavy data only where an observer asks."""
+
+    def __init__(self, observers: object, plans: list[MotorPlan], total: int) -> None:
+        self.observers = observers
+        self.total = total
+        self.moves = [p.m for p in plans]  # static for the fit: no read from the device
+        self.points = [m + 1 for m in self.moves]
+
+    def __call__(self, step: int, ev: Evaluation, batch: PlanBatch) -> StepState:
+        state = StepState(step, self.total, _terms(ev), ev.t_end.detach().mean())
+        if wants(self.observers, "image", step):
+            state.rendered = ev.rendered.detach()
+        if wants(self.observers, "geometry", step):
+            # samples per path n_p = k·m_p + 1, k read from the (static) shape: no sync
+            k = (ev.positions.shape[0] - len(self.moves)) // max(sum(self.moves), 1)
+            counts = [k * m + 1 for m in self.moves]
+            state.positions = list(torch.split(ev.positions.detach(), counts))
+            state.speeds = list(torch.split(ev.velocities.detach()[:, :2].norm(dim=1), counts))
+            state.targets = list(torch.split(batch.points.detach(), self.points))
+        return state
 
 
 def optimise(
     plans: list[MotorPlan],
     objective: Objective,
-    params: FitParams,
-    observers: Sequence[Observer] = (),
-    progress: Callable[[int, dict[str, float], float], None] | None = None,
+    settings: OptimiserSettings,
+    observers: object = None,
 ) -> FitResult:
-    """Fit ``plans`` for ``params.steps`` Adam steps; returns the final (detached) plans."""
+    """Fit ``plans`` for ``settings.steps`` Adam steps; returns the final (detached) plans.
+
+    ``observers`` (an object with optional ``on_step`` / ``wants_image`` /
+    ``wants_geometry``, e.g. the shell's observer group) sees every step.
+    """
     start = time.perf_counter()
     src = PlanBatch.from_plans([p.detached() for p in plans])
     leaves = {k: getattr(src, k).clone().requires_grad_(True)
@@ -79,23 +112,26 @@ def optimise(
     batch = PlanBatch(leaves["points"], leaves["delta_t"], leaves["delta"], leaves["ac"],
                       src.T, src.moves, src.widths)
     groups = [
-        {"params": [leaves["points"]], "lr": params.lr_points},
-        {"params": [leaves["delta_t"]], "lr": params.lr_delta_t},
-        {"params": [leaves["delta"]], "lr": params.lr_delta},
+        {"params": [leaves["points"]], "lr": settings.lr_points},
+        {"params": [leaves["delta_t"]], "lr": settings.lr_delta_t},
+        {"params": [leaves["delta"]], "lr": settings.lr_delta},
     ]
-    if params.lr_ac > 0:
-        groups.append({"params": [leaves["ac"]], "lr": params.lr_ac})
+    if settings.lr_ac > 0:
+        groups.append({"params": [leaves["ac"]], "lr": settings.lr_ac})
     optimiser = torch.optim.Adam(groups)
     scheduler = torch.optim.lr_scheduler.LambdaLR(
-        optimiser, lambda k: _cosine(k, params.steps, params.lr_final))
+        optimiser, lambda k: cosine(k, settings.steps, settings.lr_final))
+    on_step = getattr(observers, "on_step", None)
+    states = _StepStates(observers, plans, settings.steps)
 
     with torch.no_grad():
         first = objective(batch)
-    initial_terms = _floats(first.terms, first.total)
+    initial_terms = scalars(_terms(first))
+    if not math.isfinite(initial_terms["total"]):
+        raise _not_finite()
     initial_t_end = first.t_end.tolist()
-    history: list[dict[str, float]] = []
-    ev = first
-    for step in range(1, params.steps + 1):
+    finite = torch.ones((), dtype=torch.bool, device=src.points.device)  # all steps so far
+    for step in range(1, settings.steps + 1):
         optimiser.zero_grad(set_to_none=True)
         ev = objective(batch)
         ev.total.backward()
@@ -105,30 +141,27 @@ def optimise(
             leaves["delta_t"].clamp_(*DELTA_T_RANGE)
             leaves["delta"].clamp_(*DELTA_RANGE)
             leaves["ac"].clamp_(*AC_RANGE)
-        terms = _floats(ev.terms, ev.total)
-        terms["t_end"] = float(ev.t_end.detach().sum())
-        history.append(terms)
-        if observers:
-            state = _state(step, params.steps, ev, batch, observers, terms)
-            for o in observers:
-                if hasattr(o, "on_step"):
-                    o.on_step(state)
-        if progress is not None:
-            progress(step, terms, float(ev.t_end.detach().sum()))
+            finite = finite & torch.isfinite(ev.total.detach())
+        if step % settings.check_every == 0 and not bool(finite):
+            raise _not_finite()
+        if on_step is not None:
+            on_step(states(step, ev, batch))
 
     with torch.no_grad():
         last = objective(batch)
+    final_terms = scalars(_terms(last))
+    if not bool(finite) or not math.isfinite(final_terms["total"]):
+        raise _not_finite()
     result_plans = PlanBatch(*(t.detach().clone() for t in (
         batch.points, batch.delta_t, batch.delta, batch.ac, batch.T)), src.moves,
         src.widths).to_plans()
     return FitResult(
         plans=result_plans,
         initial_terms=initial_terms,
-        final_terms=_floats(last.terms, last.total),
+        final_terms=final_terms,
         initial_t_end=initial_t_end,
         final_t_end=last.t_end.tolist(),
         rendered=last.rendered.detach(),
         wall_s=time.perf_counter() - start,
-        steps=params.steps,
-        history=history,
+        steps=settings.steps,
     )

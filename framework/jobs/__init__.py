@@ -1,5 +1,5 @@
-"""Jobs: the spec shared by run and submit, and the runner that executes one."""
+"""Jobs: the spec shared by run and submit, job kinds, and the shell that runs one."""
 
-from inkmotion.jobs.spec import FitParams, JobSpec
+from inkmotion.jobs.spec import JobSpec
 
-__all__ = ["FitParams", "JobSpec"]
+__all__ = ["JobSpec"]

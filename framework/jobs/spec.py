@@ -1,133 +1,132 @@
-"""The job specification shared by ``inkmotion run`` and ``inkmotion submit``.
+"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 2).
 
-A job is one validated spec: a kind, an input, plugin names, parameters and a seed. It is
-plain JSON (job.json), so it can travel through the broker and reproduce a run.
+A job is one validated spec, plain JSON (job.json), so it can travel through the broker
+and reproduce a run::
+
+    {"version": 2, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
+     "device": "auto", "record_every": 10,
+     "params": {"steps": 300, ..., "initialiser": {"name": "dce", "threshold": 1.0},
+                "renderer": {"name": "raster"}, "losses": [{"name": "mse"}]}}
+
+``params`` holds the kind's own fields (declared by the job-kind plugin, see
+:mod:`inkmotion.jobs.params`) with each plugin's options nested under its name. Version 1
+files (flat ``input``, ``initialiser``, ``renderer``, ``losses``, ``reader`` and a flat
+``params`` with ``dce_threshold`` and ``record_every``) are upgraded on load, so their
+job.json still reproduces their run.
 """
 
 from __future__ import annotations
 
+import copy
 import json
-import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-KINDS = ("fit",)
-SPEC_VERSION = 1
-
-
-@dataclass
-class FitParams:
-    """Optimiser settings; defaults are the authors' (DESIGN.md § Fitting defaults)."""
-
-    steps: int = 300
-    size: int = 350  # canvas longer side, px
-    width: float = 3.0  # stroke width, px
-    # λ on mean over paths of T_end/m + w_σ·Var Δt. The authors' demo uses 70 against
-    # 200·MSE; with our renderer and MSE scale 70 pins every Δt at its 0.1 floor and cuts
-    # corners (49867.json: max Chamfer 6.0 px), while 20 reaches the same T_end (0.14×)
-    # with a max of 0.9 px, so 20 is the default.
-    lambda_smooth: float = 20.0
-    w_image: float = 200.0  # w_I on the image loss
-    w_sigma: float = 50.0
-    w_canvas: float = 1.0  # keeps virtual targets inside the canvas
-    lr_points: float = 2.0
-    lr_delta_t: float = 0.05
-    lr_delta: float = 0.1
-    lr_ac: float = 0.0  # 0 keeps Ac fixed
-    lr_final: float = 0.1  # cosine decay to this fraction
-    dce_threshold: float = 1.0  # DCE relevance threshold, px
-    samples_per_move: int = 5
-    record_every: int = 10  # rendered images into the recording every k steps (0: none)
-
-    def validate(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise SpecError(f"Parameter {f.name}={v!r} must be a finite number.")
-            if v < 0:
-                raise SpecError(f"Parameter {f.name}={v!r} must not be negative.")
-        if not 1 <= self.steps <= 100_000:
-            raise SpecError(f"Parameter steps={self.steps} must be between 1 and 100000.")
-        if not 32 <= self.size <= 4096:
-            raise SpecError(f"Parameter size={self.size} must be between 32 and 4096 px.")
-        if self.width <= 0:
-            raise SpecError(f"Parameter width={self.width} must be positive.")
-        if self.samples_per_move < 1:
-            raise SpecError("Parameter samples_per_move must be at least 1.")
+SPEC_VERSION = 2
+DEFAULT_DEVICE = "auto"
+_FIELDS = ("version", "kind", "inputs", "seed", "device", "record_every", "params")
 
 
 @dataclass
 class JobSpec:
-    """One job. ``input`` is a file path or ``text:WORD``; plugins are named, not imported."""
+    """One job: a kind, its named inputs, its parameters (raw JSON), seed and device."""
 
     kind: str = "fit"
-    input: str = ""
-    initialiser: str = "dce"
-    renderer: str = "raster"
-    losses: list[str] = field(default_factory=lambda: ["mse"])
-    reader: str | None = None  # None: the first reader that can read the input
-    params: FitParams = field(default_factory=FitParams)
+    inputs: dict[str, str] = field(default_factory=dict)
+    params: dict[str, Any] = field(default_factory=dict)
     seed: int = 0
-    device: str = "cpu"
+    device: str = DEFAULT_DEVICE  # cpu, cuda, cuda:N or auto (CUDA when present)
+    record_every: int = 10  # rendered images into recording.rrd every k steps (0: none)
     version: int = SPEC_VERSION
 
+    @property
+    def label(self) -> str:
+        """A short description for listings: the inputs' values."""
+        return ", ".join(str(v) for v in self.inputs.values())
+
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return {"version": self.version, "kind": self.kind, "inputs": dict(self.inputs),
+                "seed": self.seed, "device": self.device, "record_every": self.record_every,
+                "params": copy.deepcopy(self.params)}
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=1)
 
+    def copy(self) -> JobSpec:
+        return JobSpec.from_dict(self.to_dict())
+
     @classmethod
-    def from_dict(cls, d: dict[str, Any], source: str = "job spec") -> JobSpec:
+    def from_dict(cls, d: Any, source: str = "job spec") -> JobSpec:
+        """A spec from its JSON form (version 1 or 2, or a job.json wrapping it)."""
         if not isinstance(d, dict):
             raise SpecError(f"{source}: a job spec must be a JSON object.")
-        d = dict(d.get("spec", d))  # accept a job.json that wraps the spec
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - known)
+        d = dict(d.get("spec", d))  # a job.json wraps the spec
+        if d.get("version", 1) == 1 and "inputs" not in d:
+            d = upgrade_v1(d, source)
+        if d.get("version") != SPEC_VERSION:
+            raise SpecError(f"{source}: spec version {d.get('version')!r} is not supported; "
+                            f"this inkmotion reads versions 1 and {SPEC_VERSION}.")
+        unknown = sorted(set(d) - set(_FIELDS))
         if unknown:
-            raise SpecError(f"{source}: unknown field(s) {', '.join(unknown)}; "
-                            f"known fields are {', '.join(sorted(known))}.")
-        params = d.pop("params", {}) or {}
-        pknown = {f.name for f in fields(FitParams)}
-        punknown = sorted(set(params) - pknown)
-        if punknown:
-            raise SpecError(f"{source}: unknown parameter(s) {', '.join(punknown)}; "
-                            f"known parameters are {', '.join(sorted(pknown))}.")
-        try:
-            spec = cls(**d, params=FitParams(**params))
-        except TypeError as exc:
-            raise SpecError(f"{source}: {exc}.") from exc
+            raise SpecError(f"{source}: unknown field(s) {', '.join(unknown)}; known fields "
+                            f"are {', '.join(_FIELDS)}.")
+        spec = cls(**{k: copy.deepcopy(v) for k, v in d.items()})
+        _check_types(spec, source)
         return spec
 
     @classmethod
     def load(cls, path: str | Path) -> JobSpec:
         return cls.from_dict(read_json(path, SpecError, "job file"), str(path))
 
-    def validate(self, check_plugins: bool = True, check_input: bool = True) -> JobSpec:
-        """Refuse a bad spec with one sentence; returns self for chaining."""
-        if self.kind not in KINDS:
-            raise SpecError(f"Unknown job kind {self.kind!r}; kinds are: {', '.join(KINDS)}.")
-        if not isinstance(self.input, str) or not self.input:
-            raise SpecError("The job has no input; give a file path or text:WORD.")
-        if not isinstance(self.seed, int):
-            raise SpecError(f"seed={self.seed!r} must be an integer.")
-        if not isinstance(self.losses, list) or not self.losses:
-            raise SpecError("The job needs at least one image loss (e.g. mse).")
-        self.params.validate()
-        if check_input and not self.input.startswith("text:") and not Path(self.input).is_file():
-            raise SpecError(f"{self.input}: no such input file; check the path.")
-        if check_plugins:
-            from inkmotion.plugin_host import host
 
-            h = host()
-            h.get("initialiser", self.initialiser)
-            h.get("renderer", self.renderer)
-            for name in self.losses:
-                h.get("image-loss", name)
-            if self.reader is not None:
-                h.get("reader", self.reader)
-        return self
+def _check_types(spec: JobSpec, source: str) -> None:
+    if not isinstance(spec.kind, str) or not spec.kind:
+        raise SpecError(f"{source}: kind must name a job kind, e.g. \"fit\".")
+    if not isinstance(spec.inputs, dict) or not all(
+            isinstance(k, str) and isinstance(v, str) for k, v in spec.inputs.items()):
+        raise SpecError(f"{source}: inputs must map input names to strings, e.g. "
+                        "{\"drawing\": \"tag.gml\"}.")
+    if not isinstance(spec.params, dict):
+        raise SpecError(f"{source}: params must be a JSON object.")
+    for name in ("seed", "record_every"):
+        value = getattr(spec, name)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise SpecError(f"{source}: {name}={value!r} must be a non-negative integer.")
+    if not isinstance(spec.device, str) or not spec.device:
+        raise SpecError(f"{source}: device must be cpu, cuda, cuda:N or auto.")
+
+
+def upgrade_v1(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
+    """A version-1 spec (the fit job's flat layout) in the version-2 layout.
+
+    v1: ``{kind, input, initialiser, renderer, losses, reader, params: {..., dce_threshold,
+    record_every}, seed, device}``; the DCE threshold moves under the initialiser, the
+    recording setting to the top level, the plugins into params.
+    """
+    known = {"kind", "input", "initialiser", "renderer", "losses", "reader", "params",
+             "seed", "device", "version"}
+    unknown = sorted(set(d) - known)
+    if unknown:
+        raise SpecError(f"{source}: unknown field(s) {', '.join(unknown)}; known fields "
+                        f"are {', '.join(sorted(known))}.")
+    params = dict(d.get("params") or {})
+    if not isinstance(params, dict):
+        raise SpecError(f"{source}: params must be a JSON object.")
+    record_every = params.pop("record_every", 10)
+    initialiser: dict[str, Any] = {"name": d.get("initialiser", "dce")}
+    threshold = params.pop("dce_threshold", None)
+    if threshold is not None and initialiser["name"] == "dce":
+        initialiser["threshold"] = threshold
+    params["initialiser"] = initialiser
+    params["renderer"] = {"name": d.get("renderer", "raster")}
+    losses = d.get("losses", ["mse"])
+    params["losses"] = [{"name": n} for n in losses] if isinstance(losses, list) else losses
+    if d.get("reader") is not None:
+        params["reader"] = {"name": d["reader"]}
+    return {"version": SPEC_VERSION, "kind": d.get("kind", "fit"),
+            "inputs": {"drawing": d.get("input", "")}, "seed": d.get("seed", 0),
+            "device": d.get("device", "cpu"), "record_every": record_every, "params": params}

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from inkmotion.outputs.sampling import on_cpu
 from inkmotion.sigma_lognormal.plan import MotorPlan
 from inkmotion.sigma_lognormal.speed import speed_profile
 
@@ -28,7 +29,8 @@ def write_speed_plot(path: str | Path, plans: list[MotorPlan]) -> None:
     from matplotlib.figure import Figure
 
     assert plans, "at least one plan"
-    ends = [float(p.end_time.detach()) for p in plans]
+    plans = [on_cpu(p) for p in plans]
+    ends = [float(p.end_time) for p in plans]
     gap = 0.03 * sum(ends) + 1e-3
     fig = Figure(figsize=(10, 3.2), dpi=120)
     FigureCanvasAgg(fig)
@@ -40,7 +42,7 @@ def write_speed_plot(path: str | Path, plans: list[MotorPlan]) -> None:
         n = max(MIN_SAMPLES, SAMPLES_PER_MOVE * plan.m)
         with torch.no_grad():
             t = torch.linspace(0.0, t_end, n, dtype=torch.float64)
-            total, parts = speed_profile(plan.detached().to(dtype=torch.float64), t)
+            total, parts = speed_profile(on_cpu(plan, torch.float64), t)
         x = start + t.numpy()
         total, parts = total.numpy(), parts.numpy()  # (n,), (m, n)
         top = max(top, float(total.max(initial=0.0)), float(parts.max(initial=0.0)))

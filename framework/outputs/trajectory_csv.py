@@ -11,9 +11,9 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-import torch
+import numpy as np
 
-from inkmotion.sigma_lognormal.kinematics import kinematics
+from inkmotion.outputs.sampling import sample
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 
@@ -35,14 +35,7 @@ def write_trajectory_csv(
         out = csv.writer(f)
         out.writerow(header)
         for k, plan in enumerate(plans):
-            with torch.no_grad():
-                p = plan.detached().to(dtype=torch.float64)
-                n = samples_per_move * p.m
-                t = torch.linspace(0.0, float(p.end_time), n + 1, dtype=torch.float64)
-                kin = kinematics(p, t)
-                speed = torch.linalg.vector_norm(kin.velocities[:, :2], dim=1)
-                cols = torch.cat(
-                    (t[:, None], kin.positions, kin.velocities[:, :2],
-                     kin.accelerations[:, :2], speed[:, None]), dim=1
-                ).tolist()
+            s = sample(plan, samples_per_move)
+            cols = np.column_stack((s.t, s.positions, s.velocities[:, :2],
+                                    s.accelerations[:, :2], s.speed)).tolist()
             out.writerows([str(k), *map(_fmt, row)] for row in cols)

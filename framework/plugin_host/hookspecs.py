@@ -18,6 +18,11 @@ hookimpl = pluggy.HookimplMarker(PROJECT)
 
 
 @hookspec
+def inkmotion_job_kinds() -> list:
+    """Job kinds: parameters, queue, steps and ``run(job) -> report`` (fit, tag, ...)."""
+
+
+@hookspec
 def inkmotion_readers() -> list:
     """Readers: parse an input (file path or ``scheme:value`` string) into traces."""
 
@@ -49,6 +54,7 @@ def inkmotion_robot_backends() -> list:
 
 #: plugin kind (as users name it) -> the hook that provides plugins of that kind
 KIND_HOOKS: dict[str, str] = {
+    "job-kind": "inkmotion_job_kinds",
     "reader": "inkmotion_readers",
     "initialiser": "inkmotion_initialisers",
     "image-loss": "inkmotion_image_losses",

@@ -1,9 +1,12 @@
 """The plugin manager: loads plugins from the ``inkmotion`` entry-point group.
 
 Built-ins are registered exactly like third-party plugins (through entry points), so
-nothing in the core knows a built-in by name except as a default. A plugin module that
-fails to import is recorded as broken and skipped; ``inkmotion plugins`` reports it.
-``check_pending()`` runs after loading, so a misspelt hook fails loudly and early.
+nothing in the core knows a built-in by name except as a default. Registration is checked
+in full before anything is kept (pluggy's ``check_pending`` for misspelt hooks, the
+objects each hook returns against their kind's protocol, names unique per kind): a plugin
+that fails any check is unregistered again, recorded as broken with the reason, and
+``inkmotion plugins`` reports it; one bad third-party plugin never takes the command line
+down. Loading the built-ins imports no torch (their heavy parts load on first use).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import pluggy
 from inkmotion.errors import PluginError
 from inkmotion.plugin_host import hookspecs
 from inkmotion.plugin_host.hookspecs import KIND_HOOKS, PROJECT
+from inkmotion.plugin_host.protocols import check_plugin_object
 
 ENTRY_POINT_GROUP = "inkmotion"
 
@@ -35,21 +39,22 @@ class PluginInfo:
 
 
 class PluginHost:
-    """Owns one :class:`pluggy.PluginManager` and the broken-plugin records."""
+    """Owns one :class:`pluggy.PluginManager`, the plugin objects by kind and name, and
+    the broken-plugin records."""
 
     def __init__(self) -> None:
         self.pm = pluggy.PluginManager(PROJECT)
         self.pm.add_hookspecs(hookspecs)
         self.broken: list[PluginInfo] = []
-        self._origins: dict[int, str] = {}
-        self._by_kind: dict[str, dict[str, Any]] = {}
+        self._objects: dict[str, dict[str, Any]] = {kind: {} for kind in KIND_HOOKS}
+        self._origins: dict[tuple[str, str], str] = {}  # (kind, name) -> origin
 
     def load_entry_points(self, group: str = ENTRY_POINT_GROUP) -> None:
         """Import and register every module of the entry-point group.
 
-        A module that fails to import, or whose hooks do not match the specs (a misspelt
-        hook name, wrong arguments), is recorded as broken with the reason and skipped,
-        with a warning, so one bad third-party plugin cannot take the command line down.
+        A module that fails to import or to register (a misspelt hook, wrong arguments, an
+        object that breaks its protocol, a name another package already registered) is
+        recorded as broken with the reason and skipped, with a warning.
         """
         for ep in sorted(entry_points(group=group), key=lambda e: e.name):
             dist = ep.dist.name if ep.dist is not None else "?"
@@ -64,36 +69,72 @@ class PluginHost:
                               stacklevel=2)
 
     def register(self, module: Any, name: str | None = None, origin: str = "local") -> None:
-        """Register a plugin module or object; its hooks are verified against the specs
-        (pluggy checks the arguments, ``check_pending`` rejects hooks with no spec)."""
+        """Register a plugin module or object, all or nothing.
+
+        pluggy verifies the hooks' arguments; ``check_pending`` rejects hooks with no spec;
+        every object a hook returns is checked against its kind's protocol; a name already
+        taken within a kind is refused, naming both origins. On any failure the module is
+        unregistered again and :class:`PluginError` says why.
+        """
+        label = name or getattr(module, "__name__", repr(module))
         try:
             self.pm.register(module, name=name)
         except pluggy.PluginValidationError as exc:
-            raise PluginError(f"Plugin {name or module!r} has an invalid hook: {exc}") from exc
+            raise PluginError(f"Plugin {label!r} from {origin} has an invalid hook: {exc}") \
+                from exc
+        except ValueError as exc:  # registered twice under one name
+            raise PluginError(f"Plugin {label!r} from {origin}: {exc}") from exc
         try:
             self.pm.check_pending()
+            found = self._collect(module, label, origin)
         except pluggy.PluginValidationError as exc:
             self.pm.unregister(module)
-            raise PluginError(f"Plugin {name or module!r} implements a hook that does not "
-                              f"exist: {exc}") from exc
-        self._origins[id(module)] = origin
-        self._by_kind.clear()
+            raise PluginError(f"Plugin {label!r} from {origin} implements a hook that does "
+                              f"not exist: {exc}") from exc
+        except Exception:
+            self.pm.unregister(module)
+            raise
+        for kind, obj in found:
+            obj._inkmotion_origin = origin
+            self._objects[kind][obj.name] = obj
+            self._origins[(kind, obj.name)] = origin
+
+    def _collect(self, module: Any, label: str, origin: str) -> list[tuple[str, Any]]:
+        """The (kind, object) pairs ``module``'s hooks provide, each checked; raises
+        :class:`PluginError` on the first problem, before anything is kept."""
+        found: list[tuple[str, Any]] = []
+        seen: set[tuple[str, str]] = set()
+        for kind, hook_name in KIND_HOOKS.items():
+            hook = getattr(self.pm.hook, hook_name)
+            for impl in hook.get_hookimpls():
+                if impl.plugin is not module:
+                    continue
+                try:
+                    objects = impl.function() or []
+                except Exception as exc:
+                    raise PluginError(f"Plugin {label!r} from {origin}: {hook_name}() raised "
+                                      f"{type(exc).__name__}: {exc}") from exc
+                for obj in objects:
+                    problem = check_plugin_object(kind, obj)
+                    if problem:
+                        raise PluginError(f"Plugin {label!r} from {origin}: {problem}.")
+                    key = (kind, obj.name)
+                    if key in self._origins or key in seen:
+                        first = self._origins.get(key, origin)
+                        raise PluginError(
+                            f"Two {kind} plugins are named {obj.name!r}: one from {first}, "
+                            f"one from {origin}; uninstall or rename one of them.")
+                    seen.add(key)
+                    found.append((kind, obj))
+        return found
 
     def plugins(self, kind: str) -> dict[str, Any]:
-        """All plugin objects of ``kind``, by name (collected once per registration state)."""
+        """All plugin objects of ``kind``, by name."""
         if kind not in KIND_HOOKS:
             raise PluginError(
                 f"Unknown plugin kind {kind!r}; kinds are: {', '.join(sorted(KIND_HOOKS))}."
             )
-        if kind not in self._by_kind:
-            hook = getattr(self.pm.hook, KIND_HOOKS[kind])
-            found: dict[str, Any] = {}
-            for impl in hook.get_hookimpls():
-                for obj in impl.function() or []:
-                    obj._inkmotion_origin = self._origins.get(id(impl.plugin), "local")
-                    found[obj.name] = obj
-            self._by_kind[kind] = found
-        return self._by_kind[kind]
+        return self._objects[kind]
 
     def get(self, kind: str, name: str) -> Any:
         """The plugin object ``name`` of ``kind``; a clear error lists the available ones."""
@@ -109,7 +150,7 @@ class PluginHost:
     def table(self) -> list[PluginInfo]:
         """Every plugin with kind, name, origin and one-line description, broken ones last."""
         rows = [
-            PluginInfo(kind, obj.name, getattr(obj, "_inkmotion_origin", "local"),
+            PluginInfo(kind, obj.name, self._origins.get((kind, obj.name), "local"),
                        obj.description.strip().splitlines()[0] if obj.description else "")
             for kind in KIND_HOOKS
             for obj in self.plugins(kind).values()

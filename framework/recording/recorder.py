@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from inkmotion.jobs.observers import RunContext, StepState
+from inkmotion.events import RunContext, StepState
 
 RECORDING_NAME = "recording.rrd"
 APPLICATION_ID = "inkmotion"
@@ -60,6 +60,13 @@ def _flat(tensors: list[torch.Tensor], dims: int) -> tuple[np.ndarray, list[int]
         flat = flat[:, :dims]
     offsets = np.cumsum([0] + [len(t) for t in tensors]).tolist()
     return flat.float().cpu().numpy().copy(), offsets
+
+
+def _numbers(values: list) -> np.ndarray:
+    """Floats from a list of 0-d tensors (one device read) or numbers."""
+    if values and isinstance(values[0], torch.Tensor):
+        return torch.stack([v.reshape(()).double() for v in values]).cpu().numpy()
+    return np.asarray(values, dtype=np.float64)
 
 
 @dataclass
@@ -133,13 +140,14 @@ class RerunRecorder:
         if self.path is None:
             self.path = Path(ctx.staging_dir) / RECORDING_NAME
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._total = int(getattr(ctx.spec.params, "steps", 0) or 0)
+        self._total = int(ctx.total_steps)
         rec = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
         rec.save(str(self.path))
         self._rec = rec
-        label = getattr(ctx.spec, "input", "")
+        label = getattr(ctx.spec, "label", "")
         rec.send_recording_name(f"{getattr(ctx.spec, 'kind', 'job')} {label}".strip())
-        rec.log("target", rr.Image(_paper(ctx.target)), static=True)
+        if ctx.target is not None:
+            rec.log("target", rr.Image(_paper(ctx.target)), static=True)
         strips = [_xy(s) for s in ctx.traces if len(s) >= 2]
         if strips:
             rec.log("input/traces", rr.LineStrips2D(strips, colors=[(120, 120, 120)]),
@@ -152,9 +160,9 @@ class RerunRecorder:
         if rec is None:
             return
         step = int(state.step)
-        for name, value in state.losses.items():
-            _add(self._scalars, f"losses/{name}", step, float(value))
-        _add(self._scalars, "t_end", step, float(state.t_end))
+        for name, value in state.losses.items():  # 0-d tensors: read at flush, in one go
+            _add(self._scalars, f"losses/{name}", step, value)
+        _add(self._scalars, "t_end", step, state.t_end)
         if state.rendered is not None:
             rec.set_time("step", sequence=step)
             rec.log("rendered", rr.Image(_paper(state.rendered)))
@@ -178,7 +186,7 @@ class RerunRecorder:
                 self._rec.log(f"speed/{p}", rr.Clear(recursive=True))
         self._paths_logged = n_paths
         self._geometry.append(_StepGeometry(
-            step=step, t_end=float(state.t_end),
+            step=step, t_end=float(state.t_end),  # geometry steps read the device anyway
             positions=_flat(state.positions, 2), speeds=_flat(state.speeds, 0),
             targets=_flat(state.targets, 2)))
 
@@ -192,7 +200,7 @@ class RerunRecorder:
             return
         for entity, (steps, values) in self._scalars.items():
             rec.send_columns(entity, indexes=[rr.TimeColumn("step", sequence=steps)],
-                             columns=rr.Scalars.columns(scalars=np.asarray(values)))
+                             columns=rr.Scalars.columns(scalars=_numbers(values)))
         self._scalars.clear()
         self._send_geometry()
 

@@ -1,0 +1,120 @@
+"""``inkmotion run``: execute a job in this process (no services needed).
+
+``inkmotion run KIND INPUT --out DIR [options]`` — one subcommand per job kind, generated
+from its declaration (:mod:`inkmotion.cli.kind_commands`); ``inkmotion run --config
+job.json --out DIR`` reproduces a previous run (any kind, spec version 1 or 2).
+"""
+
+from __future__ import annotations
+
+import inspect
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+
+from inkmotion.cli.errors import fail
+from inkmotion.cli.kind_commands import KindGroup, kind_command, spec_from_options
+from inkmotion.errors import InkmotionError
+
+RUN_HELP = """Run a job in this process (no services needed).
+
+Examples:
+
+  inkmotion run fit text:hello --out results/hello
+
+  inkmotion run fit tag.gml --out results/tag --steps 300 --size 350
+
+  inkmotion run --config results/tag/job.json --out results/again
+"""
+
+OutOpt = Annotated[Optional[Path], typer.Option(  # noqa: UP045
+    "--out", help="Output folder (written atomically; required).")]
+RecordOpt = Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")]
+
+
+def execute(spec: Any, out_dir: Path, record: bool) -> None:
+    """Run ``spec`` through the job shell with a progress bar, print where results are."""
+    from inkmotion.jobs.shell import run_job
+
+    try:
+        report = run_job(spec, out_dir, record=record, progress=True)
+    except InkmotionError as exc:
+        fail(exc)
+    except KeyboardInterrupt:
+        typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
+        raise typer.Exit(130) from None
+    typer.echo(summary(report))
+    files = sorted(p.name for p in Path(out_dir).iterdir())
+    typer.echo(f"results in {out_dir} ({', '.join(files)})")
+
+
+def summary(report: dict) -> str:
+    """One line: wall time, device and the kind's metrics."""
+    shown = [f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+             for k, v in (report.get("metrics") or {}).items()]
+    return (f"done in {report.get('wall_s', 0.0):.1f} s on {report.get('device', '?')}: "
+            + ", ".join(shown))
+
+
+def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None:
+    from inkmotion.jobs.kind import resolve
+
+    out_dir, record, config = values.pop("out_dir"), values.pop("record"), values.pop("config")
+    if out_dir is None:
+        fail("give the output folder: --out DIR.", code=2)
+    try:
+        spec = spec_from_options(kind_name, inputs, values, config)
+        resolve(spec)
+    except InkmotionError as exc:
+        fail(exc)
+    execute(spec, out_dir, record)
+
+
+_EXTRA = [
+    inspect.Parameter("out_dir", inspect.Parameter.KEYWORD_ONLY, default=None, annotation=OutOpt),
+    inspect.Parameter("record", inspect.Parameter.KEYWORD_ONLY, default=True,
+                      annotation=RecordOpt),
+]
+
+
+class RunGroup(KindGroup):
+    """``inkmotion run KIND``: one command per job kind."""
+
+    def make(self, kind: Any) -> Any:
+        return kind_command(kind, "run", _run_kind, _EXTRA)
+
+
+run_app = typer.Typer(cls=RunGroup, help=RUN_HELP, no_args_is_help=False,
+                      rich_markup_mode="rich")
+
+
+@run_app.callback(invoke_without_command=True)
+def run_main(
+    ctx: typer.Context,
+    config: Annotated[Optional[Path], typer.Option(  # noqa: UP045
+        "--config", help="A job.json (or spec JSON) to reproduce.")] = None,
+    out_dir: OutOpt = None,
+    record: RecordOpt = True,
+) -> None:
+    """Run a job in this process."""
+    from inkmotion.jobs.kind import resolve
+    from inkmotion.jobs.spec import JobSpec
+
+    if ctx.invoked_subcommand is not None:
+        return
+    if config is None or out_dir is None:
+        typer.echo(ctx.get_help(), err=True)
+        fail("give a job kind (e.g. `inkmotion run fit INPUT --out DIR`) or --config job.json "
+             "--out DIR.", code=2)
+    try:
+        spec = JobSpec.load(config)
+        resolve(spec)
+    except InkmotionError as exc:
+        fail(exc)
+    execute(spec, out_dir, record)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``run`` to the ``inkmotion`` app."""
+    app.add_typer(run_app, name="run")

@@ -1,0 +1,146 @@
+"""Job kinds: what a job-kind plugin declares, and a spec checked against its kind.
+
+A job kind (fit, tag, abstract, simulate, evaluate, or a third party's) is a plugin object
+registered through the ``inkmotion_job_kinds`` hook, with
+
+- ``name``, ``description`` (first line shown by ``inkmotion plugins``), ``examples``
+  (command lines shown by ``--help``);
+- ``queue``: the Celery queue its jobs go to (the one source of truth for kind -> queue);
+- ``inputs``: a tuple of :class:`InputSpec`, the named inputs of a job;
+- ``Params``: a dataclass of its parameters (:mod:`inkmotion.jobs.params`);
+- ``steps(params) -> int``: how many steps it will report;
+- ``run(job) -> dict``: do the work inside the shell (:mod:`inkmotion.jobs.shell`) and
+  return the report; the shell writes job.json and report.json and commits the folder.
+
+Nothing here imports torch: ``inkmotion run --help`` lists the kinds at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from inkmotion.errors import SpecError
+from inkmotion.jobs.params import (
+    PluginChoice,
+    describe,
+    options_dict,
+    parse,
+    plugin_options,
+)
+from inkmotion.jobs.spec import JobSpec
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """One named input of a job kind.
+
+    ``form``: "source" — a file path or ``scheme:value`` read by a reader plugin (e.g.
+    ``text:hello``); "file" — a file path; "text" — a plain string (e.g. a caption).
+    """
+
+    name: str
+    help: str
+    form: str = "source"
+
+
+@dataclass
+class ResolvedJob:
+    """A spec checked against its kind: the kind plugin, parsed params, plugin options."""
+
+    spec: JobSpec
+    kind: Any  # the job-kind plugin object
+    params: Any  # an instance of kind.Params
+    options: dict[int, Any]  # id(PluginChoice) -> that plugin's parsed options
+
+    def plugin(self, choice: PluginChoice) -> Any:
+        from inkmotion.plugin_host import host
+
+        return host().get(choice.kind, choice.name)
+
+    def options_of(self, choice: PluginChoice) -> Any:
+        return self.options.get(id(choice))
+
+    def full_spec(self) -> JobSpec:
+        """The spec with every parameter and plugin option written out (defaults
+        included), so job.json reproduces the run even if a default changes later."""
+        params = {}
+        for info in describe(self.kind.Params):
+            value = getattr(self.params, info.name)
+            if info.plugin_kind is None:
+                params[info.name] = value
+                continue
+            choices = [self._full(c) for c in (value if isinstance(value, list) else [value])]
+            params[info.name] = choices if info.many else choices[0]
+        spec = self.spec.copy()
+        spec.params = params
+        return spec
+
+    def _full(self, choice: PluginChoice | None) -> dict[str, Any] | None:
+        if choice is None:
+            return None
+        return {"name": choice.name, **options_dict(self.options_of(choice))}
+
+
+def is_scheme(source: str) -> bool:
+    """True for ``scheme:value`` sources such as ``text:hello`` (a drive letter is not one)."""
+    head, sep, _ = source.partition(":")
+    return bool(sep) and len(head) > 1 and head.isidentifier()
+
+
+def job_kind(name: str) -> Any:
+    """The job-kind plugin ``name`` (a clear error lists the kinds)."""
+    from inkmotion.plugin_host import host
+
+    kinds = host().plugins("job-kind")
+    if name not in kinds:
+        broken = [b for b in host().broken if b.name == name]
+        if broken:
+            return host().get("job-kind", name)  # says why it failed to load
+        raise SpecError(f"Unknown job kind {name!r}; kinds are: {', '.join(sorted(kinds))} "
+                        "(`inkmotion plugins` lists them with their packages).")
+    return kinds[name]
+
+
+def resolve(spec: JobSpec, source: str = "job spec", check_inputs: bool = True) -> ResolvedJob:
+    """Check ``spec`` against its kind: inputs present (and files existing), parameters
+    known and in range, plugins registered, their options valid. Raises SpecError or
+    PluginError with one sentence."""
+    kind = job_kind(spec.kind)
+    _check_inputs(kind, spec, source, check_inputs)
+    params = parse(kind.Params, spec.params, source)
+    check = getattr(params, "validate", None)
+    if check is not None:
+        check()
+    options: dict[int, Any] = {}
+    for info in describe(kind.Params):
+        if info.plugin_kind is None:
+            continue
+        value = getattr(params, info.name)
+        for choice in (value if isinstance(value, list) else [value]):
+            if choice is None:
+                continue
+            from inkmotion.plugin_host import host
+
+            plugin = host().get(info.plugin_kind, choice.name)
+            options[id(choice)] = plugin_options(plugin, choice, source)
+    return ResolvedJob(spec, kind, params, options)
+
+
+def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> None:
+    declared = {i.name: i for i in kind.inputs}
+    unknown = sorted(set(spec.inputs) - set(declared))
+    if unknown:
+        raise SpecError(f"{source}: the {spec.kind} job has no input(s) {', '.join(unknown)}; "
+                        f"its inputs are {', '.join(declared) or 'none'}.")
+    for name, info in declared.items():
+        value = spec.inputs.get(name, "")
+        if not value:
+            raise SpecError(f"The {spec.kind} job needs its {name} input: {info.help}")
+        if not check_files or info.form == "text":
+            continue
+        if info.form == "source" and is_scheme(value):
+            continue
+        if not Path(value).is_file():
+            raise SpecError(f"{value}: no such input file; check the path.")
