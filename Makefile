@@ -17,8 +17,11 @@ $(VENV)/.installed: pyproject.toml | $(VENV)/bin/python
 	$(PIP) install -q -e .
 	touch $@
 
-$(VENV)/.installed-test: pyproject.toml | $(VENV)/bin/python
+# the test extras, and a job kind written outside the package (tests/plugin_package),
+# installed like any third-party plugin so the tests can check it is picked up
+$(VENV)/.installed-test: pyproject.toml tests/plugin_package/pyproject.toml | $(VENV)/bin/python
 	$(PIP) install -q -e ".[test]"
+	$(PIP) install -q -e tests/plugin_package
 	touch $@ $(VENV)/.installed
 
 venv: $(VENV)/.installed

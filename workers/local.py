@@ -145,8 +145,9 @@ def start_redis(folder: Path, port: int | None = None, timeout: float = 10.0,
 
 @dataclass
 class WorkerPool:
-    """Real Celery worker subprocesses (``--pool=solo``, one job at a time, both queues),
-    one per node name, each logging to ``logs/<name>.log``.
+    """Real Celery worker subprocesses (``--pool=solo``, one job at a time, every queue the
+    job kinds declare unless ``queues`` is given), one per node name, each logging to
+    ``logs/<name>.log``.
 
     ``env`` (e.g. the ``INKMOTION_*`` variables) is added to this process's environment
     for every worker, with ``OMP_NUM_THREADS=1`` so that workers on one machine do not
@@ -156,11 +157,18 @@ class WorkerPool:
     env: dict[str, str]
     logs: Path
     procs: dict[str, subprocess.Popen[bytes]] = field(default_factory=dict)
+    queues: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.queues:
+            from inkmotion.workers.app import known_queues
+
+            self.queues = known_queues()
 
     def command(self, name: str) -> list[str]:
         """The command line of worker ``name``."""
         return [sys.executable, "-m", "celery", "-A", "inkmotion.workers.app", "worker",
-                "--pool=solo", "--concurrency=1", "--queues=optimise,simulate",
+                "--pool=solo", "--concurrency=1", f"--queues={','.join(self.queues)}",
                 "--without-heartbeat", "--without-gossip", "--without-mingle",
                 f"--hostname={name}@%h", "--loglevel=info"]
 

@@ -188,7 +188,7 @@ def _choice(info: ParamInfo, value: Any, source: str) -> PluginChoice:
     if isinstance(value, dict) and isinstance(value.get("name"), str):
         options = {k: v for k, v in value.items() if k != "name"}
         return PluginChoice(info.plugin_kind or "", value["name"], options)
-    raise SpecError(f"{source}: {info.name} must name a {info.plugin_kind} plugin, as "
+    raise SpecError(f"{source}: {info.name} must name one of the {info.plugin_kind} plugins, as "
                     f"\"NAME\" or {{\"name\": \"NAME\", ...options}}; got {value!r}.")
 
 

@@ -1,0 +1,218 @@
+"""Job kinds as plugins: spec version 2 (and version 1 upgraded), parameters declared by the
+kind, generated command lines, the shell, and a job kind from another package."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from inkmotion.cli.kind_commands import spec_from_options
+from inkmotion.errors import PluginError, SpecError
+from inkmotion.jobs.kind import resolve
+from inkmotion.jobs.params import to_dict
+from inkmotion.jobs.spec import JobSpec, upgrade_v1
+from inkmotion.plugin_host import PluginHost, hookimpl, host
+
+V1 = Path(__file__).parent / "data" / "v1_job"
+
+
+def inkmotion(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
+                          text=True, timeout=600, cwd=cwd)
+
+
+def test_v1_spec_is_upgraded_with_plugin_options_nested() -> None:
+    v1 = json.loads((V1 / "job.json").read_text())["spec"]
+    v2 = upgrade_v1(v1)
+    assert v2["version"] == 2 and v2["inputs"] == {"drawing": "text:hi"}
+    assert v2["device"] == "cpu" and v2["record_every"] == 10
+    assert v2["params"]["initialiser"] == {"name": "dce", "threshold": 1.0}
+    assert v2["params"]["losses"] == [{"name": "mse"}]
+    assert "dce_threshold" not in v2["params"] and "record_every" not in v2["params"]
+    job = resolve(JobSpec.from_dict(v1))
+    assert job.params.steps == 40 and job.params.size == 200
+
+
+def test_v1_job_json_reproduces_its_plan(tmp_path: Path) -> None:
+    """A job.json written by version 1 (the previous release) gives the same plan.json."""
+    res = inkmotion("run", "--config", str(V1 / "job.json"), "--out", str(tmp_path / "o"),
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    old = json.loads((V1 / "plan.json").read_text())
+    new = json.loads((tmp_path / "o" / "plan.json").read_text())
+    assert new == old
+    written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
+    assert written["version"] == 2 and written["params"]["initialiser"]["threshold"] == 1.0
+
+
+def test_job_json_holds_every_parameter_and_option() -> None:
+    job = resolve(JobSpec("fit", {"drawing": "text:hi"}, params={"steps": 5}))
+    full = job.full_spec().params
+    assert full["steps"] == 5 and full["size"] == 350
+    assert full["initialiser"] == {"name": "dce", "threshold": 1.0}
+    assert full["renderer"] == {"name": "raster"} and full["losses"] == [{"name": "mse"}]
+    assert to_dict(job.params)["initialiser"] == {"name": "dce"}
+
+
+@pytest.mark.parametrize("params, fragment", [
+    ({"stepz": 3}, "unknown parameter(s) stepz"),
+    ({"steps": 0}, "steps=0 must be between 1 and 100000"),
+    ({"steps": 2.5}, "steps=2.5 must be a whole number"),
+    ({"size": "big"}, "size='big' must be a number"),
+    ({"width": float("nan")}, "must be a finite number"),
+    ({"initialiser": {"name": "dce", "treshold": 2}}, "unknown option(s) treshold"),
+    ({"renderer": {"name": "raster", "blur": 1}}, "takes no options; remove blur"),
+    ({"renderer": "diffvg"}, "Unknown renderer plugin 'diffvg'"),
+    ({"losses": []}, "at least one image loss"),
+    ({"initialiser": 3}, "must name one of the initialiser plugins"),
+])
+def test_bad_parameters_are_one_sentence(params: dict, fragment: str) -> None:
+    with pytest.raises((SpecError, PluginError)) as info:
+        resolve(JobSpec("fit", {"drawing": "text:hi"}, params=params))
+    assert fragment in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_bad_spec_fields() -> None:
+    with pytest.raises(SpecError, match="Unknown job kind 'paint'; kinds are: "):
+        resolve(JobSpec("paint", {"drawing": "text:hi"}))
+    with pytest.raises(SpecError, match="needs its drawing input"):
+        resolve(JobSpec("fit", {}))
+    with pytest.raises(SpecError, match="has no input.s. photo"):
+        resolve(JobSpec("fit", {"drawing": "text:hi", "photo": "x.png"}))
+    with pytest.raises(SpecError, match="spec version 3 is not supported"):
+        JobSpec.from_dict({"version": 3, "kind": "fit", "inputs": {}})
+    with pytest.raises(SpecError, match="seed=-1 must be a non-negative integer"):
+        JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {}, "seed": -1})
+
+
+def test_options_build_the_spec_and_plugin_options_nest() -> None:
+    spec = spec_from_options("fit", ["tag.gml"], {"steps": 50, "dce_threshold": 20.0,
+                                                  "loss": ["mse"], "seed": 3})
+    assert spec.inputs == {"drawing": "tag.gml"} and spec.seed == 3
+    assert spec.params["steps"] == 50
+    assert spec.params["initialiser"] == {"name": "dce", "threshold": 20.0}
+    with pytest.raises(SpecError, match="--dce-threshold applies to the dce initialiser, but "
+                                        "this job uses line"):
+        spec_from_options("fit", ["tag.gml"], {"initialiser": "line", "dce_threshold": 2.0})
+
+
+def test_config_then_options_override(tmp_path: Path) -> None:
+    spec = spec_from_options("fit", [], {"steps": 7}, config=V1 / "job.json")
+    assert spec.inputs == {"drawing": "text:hi"} and spec.params["steps"] == 7
+    assert spec.params["size"] == 200
+    assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0}
+
+
+# -- registration: protocols, duplicates, all or nothing ---------------------------------
+
+class _Renderer:
+    name = "raster"
+    description = "A second 'raster'."
+
+    def __call__(self, segments, widths, height, width):
+        return None
+
+
+class _NoRun:
+    name = "broken-kind"
+    description = "A job kind without run()."
+    queue = "optimise"
+    inputs = ()
+    Params = dict
+
+    def steps(self, params):
+        return 1
+
+
+def test_duplicate_name_is_refused_naming_both_packages() -> None:
+    class Module:
+        @hookimpl
+        def inkmotion_renderers(self):
+            return [_Renderer()]
+
+    h = PluginHost()
+    h.load_entry_points()
+    module = Module()
+    with pytest.raises(PluginError) as info:
+        h.register(module, name="dup", origin="other-package (dup)")
+    text = str(info.value)
+    assert "Two renderer plugins are named 'raster'" in text
+    assert "inkmotion (inkmotion.plugins.raster)" in text and "other-package (dup)" in text
+    assert not h.pm.is_registered(module)
+    assert h.get("renderer", "raster").description != _Renderer.description
+
+
+def test_failed_registration_leaves_nothing_half_registered() -> None:
+    class Module:
+        @hookimpl
+        def inkmotion_renderers(self):
+            return [type("Ok", (_Renderer,), {"name": "fine-renderer"})()]
+
+        @hookimpl
+        def inkmotion_job_kinds(self):
+            return [_NoRun()]
+
+    h = PluginHost()
+    module = Module()
+    with pytest.raises(PluginError, match="the job-kind plugin 'broken-kind' lacks run"):
+        h.register(module, name="half", origin="half-package")
+    assert not h.pm.is_registered(module)
+    assert "fine-renderer" not in h.plugins("renderer")
+    assert "broken-kind" not in h.plugins("job-kind")
+
+
+def test_plugin_object_without_name_is_refused() -> None:
+    class Nameless:
+        description = "no name"
+
+        def prepare(self, reference):
+            return None
+
+    class Module:
+        @hookimpl
+        def inkmotion_image_losses(self):
+            return [Nameless()]
+
+    with pytest.raises(PluginError, match="has no valid `name`"):
+        PluginHost().register(Module(), name="nameless")
+
+
+# -- a job kind from another package (tests/plugin_package, installed by make test) -------
+
+def test_third_party_job_kind_is_listed_and_runs(tmp_path: Path) -> None:
+    assert "spiral" in host().plugins("job-kind"), \
+        "tests/plugin_package is not installed; run `make test` (it installs it)"
+    res = inkmotion("plugins", "--json")
+    rows = {(r["kind"], r["name"]): r for r in json.loads(res.stdout)}
+    assert rows[("job-kind", "spiral")]["origin"].startswith("inkmotion-sketch-kind")
+    assert rows[("job-kind", "fit")]["origin"].startswith("inkmotion (inkmotion.plugins.fit)")
+
+    helped = inkmotion("run", "spiral", "--help")
+    assert helped.returncode == 0 and "--turns" in helped.stdout and "--targets-per-turn" \
+        in helped.stdout and "inkmotion run spiral hello" in helped.stdout
+
+    out = tmp_path / "spiral"
+    res = inkmotion("run", "spiral", "hello", "--turns", "3", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert {"plan.json", "job.json", "report.json", "recording.rrd"} <= {
+        p.name for p in out.iterdir()}
+    report = json.loads((out / "report.json").read_text())
+    assert report["kind"] == "spiral" and report["title"] == "hello" and report["moves"] == 18
+    spec = json.loads((out / "job.json").read_text())["spec"]
+    assert spec["params"]["turns"] == 3.0 and spec["inputs"] == {"title": "hello"}
+
+    bad = inkmotion("run", "spiral", "hello", "--turns", "99", "--out", str(tmp_path / "x"))
+    assert bad.returncode == 1 and "turns=99.0 must be between 0.25 and 20" in bad.stderr
+    assert not (tmp_path / "x").exists()
+
+
+def test_the_queue_comes_from_the_job_kind() -> None:
+    from inkmotion.workers.app import known_queues, queue_for
+
+    assert queue_for("fit") == "optimise" and queue_for("spiral") == "sketch"
+    assert known_queues()[:2] == ("optimise", "simulate") and "sketch" in known_queues()
