@@ -177,3 +177,16 @@ def test_kill_9_of_a_worker_mid_job_another_worker_completes_it(workers, service
     from inkmotion.recording import read_steps
 
     assert read_steps(artifacts / "recording.rrd") == list(range(1, steps + 1))
+
+
+def test_third_party_job_kind_goes_to_its_own_queue(workers, service_env):
+    res = inkmotion_cli("submit", "spiral", "hello", "--turns", "2", "--json")
+    assert res.returncode == 0, res.stderr
+    (job,) = json.loads(res.stdout)
+    assert (job["kind"], job["queue"]) == ("spiral", "sketch")
+    wait_succeeded(job["id"])
+    r = store.get_job(job["id"])
+    assert (r.status, r.queue, r.step, r.total) == ("succeeded", "sketch", 8, 8)
+    assert r.metrics == {"moves": 12, "t_end": pytest.approx(r.metrics["t_end"])}
+    report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
+    assert report["kind"] == "spiral" and report["title"] == "hello"

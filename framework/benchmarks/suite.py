@@ -26,21 +26,24 @@ TARGETS: dict[str, tuple[float, str]] = {
 DEFAULT_BENCHES = ("kinematics", "raster", "fit", "recording")
 
 
-def _benches(fit_input: str | None) -> dict[str, Callable[[], dict]]:
+def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]]:
     def kinematics() -> dict:
         from inkmotion.benchmarks.kinematics import bench_kinematics
 
-        return bench_kinematics()
+        return _on(bench_kinematics, device)
 
     def raster() -> dict:
         from inkmotion.benchmarks.raster import bench_raster
 
-        return bench_raster()
+        return _on(bench_raster, device)
 
     def fit() -> dict:
         from inkmotion.benchmarks.fit import bench_fit
 
-        return bench_fit(fit_input)
+        figures = bench_fit(fit_input, device=device)
+        if device != "cpu":  # the issue's GPU figure: the same tag at 1000 px
+            figures.update(bench_fit(fit_input, size=1000, device=device))
+        return figures
 
     def recording() -> dict:
         from inkmotion.benchmarks.recording import bench_recording
@@ -56,12 +59,29 @@ def _benches(fit_input: str | None) -> dict[str, Callable[[], dict]]:
             "queue": queue}
 
 
+def _on(bench: Callable[..., dict], device: str) -> dict:
+    """Run ``bench`` on ``device`` (benchmarks that predate the argument run on the CPU)."""
+    import inspect
+
+    if "device" in inspect.signature(bench).parameters:
+        return bench(device=device)
+    if device != "cpu":
+        return {}
+    return bench()
+
+
 def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
-                   threads: int = 2, console: Console | None = None) -> dict:
-    """Run the chosen benchmarks (:data:`DEFAULT_BENCHES` by default) with ``threads``
-    torch threads; print a table of figure, value and target; return the figures."""
+                   threads: int = 2, console: Console | None = None,
+                   device: str = "cpu") -> dict:
+    """Run the chosen benchmarks (:data:`DEFAULT_BENCHES` by default) on ``device`` with
+    ``threads`` torch threads; print a table of figure, value and target; return them."""
+    import os
+
+    from inkmotion.devices import resolve_device
+
     console = console or Console()
-    benches = _benches(fit_input)
+    device = str(resolve_device(device))
+    benches = _benches(fit_input, device)
     unknown = set(only or []) - set(benches)
     if unknown:
         from inkmotion.errors import InkmotionError
@@ -69,6 +89,8 @@ def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
         raise InkmotionError(f"Unknown benchmark(s) {', '.join(sorted(unknown))}; "
                              f"choose from {', '.join(benches)}.")
     previous = torch.get_num_threads()
+    previous_env = os.environ.get("INKMOTION_THREADS")
+    os.environ["INKMOTION_THREADS"] = str(threads)  # jobs run by the benchmarks use it too
     torch.set_num_threads(threads)
     figures: dict = {}
     try:
@@ -79,7 +101,12 @@ def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
                 figures.update(fn())
     finally:
         torch.set_num_threads(previous)
-    table = Table("figure", "value", "target", title=f"inkmotion bench ({threads} threads)")
+        if previous_env is None:
+            os.environ.pop("INKMOTION_THREADS", None)
+        else:
+            os.environ["INKMOTION_THREADS"] = previous_env
+    table = Table("figure", "value", "target",
+                  title=f"inkmotion bench ({device}, {threads} CPU threads)")
     for key, value in figures.items():
         target = TARGETS.get(key)
         shown = f"{value:.3f}" if isinstance(value, float) and math.isfinite(value) else str(value)

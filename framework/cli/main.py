@@ -58,6 +58,8 @@ def bench_cmd(
         help="Input of the fit benchmark (default: ../shared 49867.json, else text:inkmotion).")
     ] = None,
     threads: Annotated[int, typer.Option(help="torch threads (the targets assume 2).")] = 2,
+    device: Annotated[str, typer.Option(
+        help="cpu, cuda or auto: where kinematics, raster and fit run.")] = "cpu",
 ) -> None:
     """Print speed figures (kinematics, raster, a full fit, recording overhead).
 
@@ -68,19 +70,23 @@ def bench_cmd(
       inkmotion bench --only kinematics --only raster
 
       inkmotion bench --only queue
+
+      inkmotion bench --device cuda
     """
     from inkmotion.benchmarks.suite import run_benchmarks
 
     try:
-        run_benchmarks(only or None, fit_input=fit_input, threads=threads, console=out)
+        run_benchmarks(only or None, fit_input=fit_input, threads=threads, console=out,
+                       device=device)
     except InkmotionError as exc:
         fail(exc)
 
 
 def _register_run() -> None:
-    from inkmotion.cli.run import register
+    from inkmotion.cli import run, submit
 
-    register(app)
+    run.register(app)
+    submit.register(app)
 
 
 _register_run()

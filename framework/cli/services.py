@@ -20,23 +20,6 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from inkmotion.cli.spec_options import (
-    ConfigOpt,
-    DceOpt,
-    DeviceOpt,
-    InitialiserOpt,
-    InputArg,
-    LambdaOpt,
-    LossOpt,
-    RecordEveryOpt,
-    RendererOpt,
-    SeedOpt,
-    SizeOpt,
-    StepsOpt,
-    WidthOpt,
-    WImageOpt,
-    spec_from_cli,
-)
 from inkmotion.errors import InkmotionError, SpecError
 
 if TYPE_CHECKING:
@@ -67,93 +50,6 @@ def _resolve(job_id: str) -> JobRecord:
     if isinstance(found, list):
         _fail(f"{job_id!r} matches {len(found)} jobs; give more characters of the id.")
     return found
-
-
-# -- submit ------------------------------------------------------------------------------
-
-def _batch_inputs(batch_words: Path | None, batch_dir: Path | None) -> list[str]:
-    if batch_words is not None:
-        try:
-            lines = batch_words.read_text(encoding="utf-8").splitlines()
-        except OSError as exc:
-            raise SpecError(f"{batch_words}: cannot read the word list ({exc.strerror}).") \
-                from exc
-        words = [w.strip() for w in lines if w.strip() and not w.strip().startswith("#")]
-        if not words:
-            raise SpecError(f"{batch_words}: the word list is empty; put one word per line.")
-        return [f"text:{w}" for w in words]
-    assert batch_dir is not None
-    if not batch_dir.is_dir():
-        raise SpecError(f"{batch_dir}: no such folder; check the path.")
-    files = sorted(p for p in batch_dir.iterdir() if p.is_file() and not p.name.startswith("."))
-    if not files:
-        raise SpecError(f"{batch_dir}: the folder holds no input files.")
-    return [str(p) for p in files]
-
-
-def submit_cmd(
-    kind: Annotated[str, typer.Argument(help="Job kind (fit).")],
-    input: InputArg = None,
-    config: ConfigOpt = None,
-    steps: StepsOpt = None,
-    size: SizeOpt = None,
-    seed: SeedOpt = None,
-    lambda_smooth: LambdaOpt = None,
-    w_image: WImageOpt = None,
-    width: WidthOpt = None,
-    dce_threshold: DceOpt = None,
-    initialiser: InitialiserOpt = None,
-    renderer: RendererOpt = None,
-    loss: LossOpt = None,
-    device: DeviceOpt = None,
-    record_every: RecordEveryOpt = None,
-    batch_words: Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--batch-words", help="A .txt file of words, one per line: one text:WORD job each.")
-    ] = None,
-    batch_dir: Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--batch-dir", help="A folder of inputs: one job per file.")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the jobs as JSON.")] = False,
-) -> None:
-    """Queue a job (or a batch) for the workers; prints the job id(s).
-
-    Same options as `inkmotion run fit`. Examples:
-
-      inkmotion submit fit text:hello --steps 200
-
-      inkmotion submit fit --batch-words words.txt --json
-
-      inkmotion submit fit --batch-dir tags/ && inkmotion jobs list
-    """
-    from inkmotion.workers.submit import submit_specs
-
-    sources = [s for s in (input, batch_words, batch_dir) if s is not None]
-    if len(sources) > 1:
-        _fail("Give one of INPUT, --batch-words or --batch-dir, not several.")
-    options = dict(config=config, steps=steps, size=size, seed=seed,
-                   lambda_smooth=lambda_smooth, w_image=w_image, width=width,
-                   dce_threshold=dce_threshold, initialiser=initialiser, renderer=renderer,
-                   loss=loss, device=device, record_every=record_every)
-    try:
-        if batch_words is not None or batch_dir is not None:
-            inputs = _batch_inputs(batch_words, batch_dir)
-            specs = [spec_from_cli(kind, item, **options) for item in inputs]  # type: ignore[arg-type]
-        else:
-            if input is None and config is None:
-                _fail("Give an INPUT (file or text:WORD), --config, --batch-words or "
-                      "--batch-dir.", code=2)
-            specs = [spec_from_cli(kind, input, **options)]  # type: ignore[arg-type]
-        records = submit_specs(specs)
-    except InkmotionError as exc:
-        _fail(exc)
-    if as_json:
-        print(json.dumps([{"id": r.id, "input": r.label, "kind": r.kind, "queue": r.queue,
-                           "status": r.status} for r in records], indent=1))
-        return
-    for r in records:
-        print(r.id)
-    err.print(f"queued {len(records)} job{'s' * (len(records) != 1)}; follow with "
-              f"`inkmotion jobs wait {records[0].id if len(records) == 1 else 'ID'}`",
-              highlight=False)
 
 
 # -- jobs --------------------------------------------------------------------------------
@@ -329,8 +225,9 @@ def jobs_logs(
 
 def worker_cmd(
     queues: Annotated[str, typer.Option(
-        "--queues", "-Q", help="Comma-separated queues: optimise (GPU-friendly), simulate.")
-    ] = "optimise,simulate",
+        "--queues", "-Q", help="Comma-separated queues, e.g. optimise (GPU-friendly), "
+        "simulate, or those of third-party job kinds; default: every known queue.")
+    ] = "",
     concurrency: Annotated[int, typer.Option(
         "--concurrency", "-c", help="Jobs at once (processes).")] = 1,
     loglevel: Annotated[str, typer.Option("--loglevel", "-l", help="Celery log level.")] =
@@ -341,19 +238,20 @@ def worker_cmd(
 ) -> None:
     """Start a Celery worker for queued jobs (stop it with Ctrl-C: jobs in hand requeue).
 
-    Examples: `inkmotion worker` (CPU, both queues); on a GPU machine
+    Examples: `inkmotion worker` (CPU, every queue); on a GPU machine
     `inkmotion worker -Q optimise -c 1`.
     """
     from inkmotion.settings import load_settings
     from inkmotion.store import get_engine
-    from inkmotion.workers.app import QUEUES, app
+    from inkmotion.workers.app import app, known_queues
     from inkmotion.workers.submit import check_broker
 
-    wanted = [q.strip() for q in queues.split(",") if q.strip()]
-    unknown = sorted(set(wanted) - set(QUEUES))
+    queues_known = known_queues()
+    wanted = [q.strip() for q in queues.split(",") if q.strip()] or list(queues_known)
+    unknown = sorted(set(wanted) - set(queues_known))
     if unknown or not wanted:
         _fail(f"Unknown queue(s) {', '.join(unknown) or '(none)'}; queues are "
-              f"{', '.join(QUEUES)}.", code=2)
+              f"{', '.join(queues_known)}.", code=2)
     if concurrency < 1:
         _fail("--concurrency must be at least 1.", code=2)
     try:
@@ -429,8 +327,7 @@ def view_cmd(
 
 
 def register(app: typer.Typer) -> None:
-    """Add submit, jobs, worker and view to the ``inkmotion`` app."""
-    app.command("submit")(submit_cmd)
+    """Add jobs, worker and view to the ``inkmotion`` app."""
     app.add_typer(jobs_app, name="jobs")
     app.command("worker")(worker_cmd)
     app.command("view")(view_cmd)
