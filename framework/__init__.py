@@ -7,13 +7,38 @@ Public API (kept small)::
     inkmotion.kinematics(plan, t)   -> positions, velocities, accelerations at times t
     inkmotion.bezier_segments(plan, n=None) -> (S, 4, D) control points
     inkmotion.plugin(kind, name)    -> the registered plugin object
+
+The names load on first use (PEP 562), so importing a submodule — the command line, the
+job store — does not import torch.
 """
 
-from inkmotion.geometry.bezier import bezier_segments
-from inkmotion.plugin_host import plugin
-from inkmotion.sigma_lognormal import Drawing, MotorPlan
-from inkmotion.sigma_lognormal.kinematics import kinematics
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __version__ = "0.1.0"
 
+#: public name -> the module that defines it
+_PUBLIC = {
+    "Drawing": "inkmotion.sigma_lognormal.plan",
+    "MotorPlan": "inkmotion.sigma_lognormal.plan",
+    "bezier_segments": "inkmotion.geometry.bezier",
+    "kinematics": "inkmotion.sigma_lognormal.kinematics",
+    "plugin": "inkmotion.plugin_host.manager",
+}
+
 __all__ = ["Drawing", "MotorPlan", "__version__", "bezier_segments", "kinematics", "plugin"]
+
+
+def __getattr__(name: str) -> Any:
+    module = _PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module 'inkmotion' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,6 +1,29 @@
-"""rerun recordings of runs: the :class:`RerunRecorder` observer and readers of .rrd files."""
+"""rerun recordings of runs: the :class:`RerunRecorder` observer and readers of .rrd files.
 
-from inkmotion.recording.reader import entity_paths, read_step_count, read_steps
-from inkmotion.recording.recorder import RECORDING_NAME, RerunRecorder
+The recorder and readers load on first use (PEP 562): ``inkmotion view`` needs only
+:data:`RECORDING_NAME` and must not import torch or rerun to find a file.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: file name of a job's recording among its artifacts
+RECORDING_NAME = "recording.rrd"
+
+_LAZY = {
+    "RerunRecorder": "inkmotion.recording.recorder",
+    "entity_paths": "inkmotion.recording.reader",
+    "read_step_count": "inkmotion.recording.reader",
+    "read_steps": "inkmotion.recording.reader",
+}
 
 __all__ = ["RECORDING_NAME", "RerunRecorder", "entity_paths", "read_step_count", "read_steps"]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'inkmotion.recording' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)

@@ -31,8 +31,8 @@ import numpy as np
 import torch
 
 from inkmotion.events import RunContext, StepState
+from inkmotion.recording import RECORDING_NAME  # noqa: E402, F401 - re-exported
 
-RECORDING_NAME = "recording.rrd"
 APPLICATION_ID = "inkmotion"
 
 
