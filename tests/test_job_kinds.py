@@ -216,3 +216,52 @@ def test_the_queue_comes_from_the_job_kind() -> None:
 
     assert queue_for("fit") == "optimise" and queue_for("spiral") == "sketch"
     assert known_queues()[:2] == ("optimise", "simulate") and "sketch" in known_queues()
+
+
+# -- the shell on every device, and the layering ------------------------------------------
+
+@pytest.mark.parametrize("kind, inputs, params", [
+    ("fit", {"drawing": "text:hi"}, {"steps": 6, "size": 96}),
+    ("spiral", {"title": "hi"}, {"steps": 3}),
+])
+def test_each_kind_runs_end_to_end_on_the_device(device, tmp_path: Path, kind: str,
+                                                  inputs: dict, params: dict) -> None:
+    """The whole job — optimisation and every writer — on ``device`` (cpu, and cuda where
+    there is one: the writers must get CPU data whatever the fit ran on)."""
+    from inkmotion.jobs.shell import run_job
+
+    spec = JobSpec(kind, inputs, params=params, device=str(device))
+    report = run_job(spec, tmp_path / "out", record=True)
+    assert report["device"].startswith(str(device).split(":")[0])
+    assert (tmp_path / "out" / "job.json").is_file() and (tmp_path / "out" / "plan.json").is_file()
+    if kind == "fit":
+        names = {p.name for p in (tmp_path / "out").iterdir()}
+        assert {"trajectory.csv", "speed.png", "drawing.svg", "overlay.png"} <= names
+        assert report["chamfer_mean_px"] < 3.0
+
+
+def test_cpu_runs_reproduce_bit_for_bit(tmp_path: Path) -> None:
+    from inkmotion.jobs.shell import run_job
+
+    spec = JobSpec("fit", {"drawing": "text:ok"}, params={"steps": 8, "size": 96}, device="cpu")
+    run_job(spec, tmp_path / "a")
+    run_job(spec, tmp_path / "b")
+    assert (tmp_path / "a" / "plan.json").read_bytes() == (tmp_path / "b" / "plan.json").read_bytes()
+
+
+def test_fitting_does_not_import_jobs() -> None:
+    """fitting/ emits step events through the neutral inkmotion.events module."""
+    root = Path(__file__).resolve().parents[1] / "framework" / "fitting"
+    for source in root.glob("*.py"):
+        assert "inkmotion.jobs" not in source.read_text(), source.name
+
+
+def test_nan_stops_the_fit_with_one_sentence(tmp_path: Path) -> None:
+    from inkmotion.errors import InkmotionError
+    from inkmotion.jobs.shell import run_job
+
+    spec = JobSpec("fit", {"drawing": "text:hi"}, device="cpu",
+                   params={"steps": 30, "size": 96, "lr_points": 1e30})
+    with pytest.raises(InkmotionError, match="non-finite loss"):
+        run_job(spec, tmp_path / "out")
+    assert not list(tmp_path.iterdir())

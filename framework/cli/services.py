@@ -111,13 +111,14 @@ def jobs_show(
         return
     table = Table(show_header=False, box=None)
     for key in ("id", "status", "kind", "queue", "label", "step", "total", "t_end", "losses",
-                "attempts", "worker_host", "created_at", "started_at", "finished_at",
-                "error", "artifact_dir"):
-        value = d[key]
+                "metrics", "attempts", "worker_host", "created_at", "started_at",
+                "finished_at", "error", "artifact_dir"):
+        value = d.get(key)
         if value is None or value == "":
             continue
-        if key == "losses":
-            value = ", ".join(f"{k}={v:.4g}" for k, v in value.items())
+        if key in ("losses", "metrics"):
+            value = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                              for k, v in value.items())
         table.add_row(f"[bold]{key}[/]", str(value))
     out.print(table)
 

@@ -9,7 +9,7 @@ from inkmotion.geometry.traces import Traces
 from inkmotion.plugin_host import host
 
 
-def _is_scheme(source: str) -> bool:
+def is_scheme(source: str) -> bool:
     """True for ``scheme:value`` sources such as ``text:hello`` (a drive letter is not one)."""
     head, sep, _ = source.partition(":")
     return bool(sep) and len(head) > 1 and head.isidentifier()
@@ -23,7 +23,7 @@ def read_input(source: str, reader: str | None = None) -> Traces:
     reader runs. Readers are asked in name order (``can_read``), so the choice is
     deterministic; when none accepts the source the error lists the supported forms.
     """
-    if not _is_scheme(source) and not Path(source).exists():
+    if not is_scheme(source) and not Path(source).exists():
         raise InputError(f"{source}: no such file; check the path.")
     if reader is not None:
         return host().get("reader", reader).read(source)

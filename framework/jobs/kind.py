@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import SpecError
+from inkmotion.geometry.read import is_scheme
 from inkmotion.jobs.params import (
     PluginChoice,
     describe,
@@ -81,12 +82,6 @@ class ResolvedJob:
         if choice is None:
             return None
         return {"name": choice.name, **options_dict(self.options_of(choice))}
-
-
-def is_scheme(source: str) -> bool:
-    """True for ``scheme:value`` sources such as ``text:hello`` (a drive letter is not one)."""
-    head, sep, _ = source.partition(":")
-    return bool(sep) and len(head) > 1 and head.isidentifier()
 
 
 def job_kind(name: str) -> Any:
