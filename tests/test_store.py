@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 from sqlalchemy import inspect, text
 
 from inkmotion import store
+from inkmotion.store import db as store_db
 from inkmotion.store.db import get_engine
+from inkmotion.store.migrations import HEAD_REVISION
 
 
 @pytest.fixture
@@ -25,11 +29,82 @@ def test_migrations_create_the_schema_matching_the_models(db_url):
     engine = get_engine(db_url)
     assert set(inspect(engine).get_table_names()) == {"jobs", "alembic_version"}
     with engine.connect() as conn:
-        assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0001"
+        assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0002"
         assert compare_metadata(MigrationContext.configure(conn), store.Job.metadata) == []
         assert conn.execute(text("PRAGMA journal_mode")).scalar() == "wal"
         assert conn.execute(text("PRAGMA busy_timeout")).scalar() >= 1000
+    assert "metrics" in {c["name"] for c in inspect(engine).get_columns("jobs")}
     store.upgrade(engine)  # idempotent
+
+
+def test_head_revision_constant_is_alembics_head():
+    """The fast path compares against HEAD_REVISION: it must be the real head."""
+    from alembic.script import ScriptDirectory
+
+    heads = ScriptDirectory.from_config(store_db.alembic_config()).get_heads()
+    assert heads == [HEAD_REVISION]
+
+
+_OLD_ROW = text(  # a row as revision 0001 wrote it (no metrics column yet)
+    "INSERT INTO jobs (id, kind, queue, status, spec, label, step, total, losses, t_end, "
+    "created_at, updated_at, attempts, artifact_dir) VALUES (:id, 'fit', 'optimise', "
+    "'succeeded', :spec, 'text:hi', 5, 5, :losses, 1.5, '2025-01-02 03:04:05.000000', "
+    "'2025-01-02 03:04:06.000000', 1, '/data/x')")
+
+
+def test_upgrade_from_0001_keeps_rows_and_adds_null_metrics(tmp_path):
+    url = f"sqlite:///{tmp_path / 'old.sqlite3'}"
+    old = get_engine(url, migrate=False)
+    store.upgrade(old, "0001")
+    with old.begin() as conn:
+        conn.execute(_OLD_ROW, {"id": "a1", "spec": json.dumps({"input": "text:hi"}),
+                                "losses": json.dumps({"total": 0.5})})
+    assert store_db.schema_revisions(old) == ("0001",) and not store_db.schema_is_current(old)
+    get_engine(url)  # a stale database: the fast path must not skip the upgrade
+    assert store_db.schema_revisions(old) == (HEAD_REVISION,)
+    got = store.get_job("a1", url)
+    assert (got.status, got.spec, got.losses, got.t_end, got.artifact_dir, got.metrics) == (
+        "succeeded", {"input": "text:hi"}, {"total": 0.5}, 1.5, "/data/x", None)
+    assert got.created_at.isoformat() == "2025-01-02T03:04:05+00:00"
+    with old.connect() as conn:
+        assert conn.execute(text("SELECT COUNT(*) FROM jobs WHERE metrics IS NULL")).scalar() == 1
+
+
+def test_downgrade_to_0001_drops_metrics_and_keeps_rows(db_url):
+    from alembic import command
+
+    engine = get_engine(db_url)
+    r = store.create_job({"kind": "fit"}, kind="fit", queue="optimise", db_url=db_url)
+    with engine.begin() as conn:
+        cfg = store_db.alembic_config()
+        cfg.attributes["connection"] = conn
+        command.downgrade(cfg, "0001")
+    insp = inspect(engine)
+    assert "metrics" not in {c["name"] for c in insp.get_columns("jobs")}
+    assert {i["name"] for i in insp.get_indexes("jobs")} == {"ix_jobs_status",
+                                                             "ix_jobs_created_at"}
+    with engine.connect() as conn:
+        assert conn.execute(text("SELECT id FROM jobs")).scalars().all() == [r.id]
+
+
+def test_current_schema_skips_alembic(db_url, monkeypatch):
+    get_engine(db_url)  # creates the schema
+    store.dispose_engines()
+    calls = []
+    monkeypatch.setattr(store_db, "upgrade", lambda engine, revision="head": calls.append(1))
+    assert store_db.schema_is_current(get_engine(db_url))
+    assert calls == []
+
+
+def test_listing_a_current_database_does_not_import_alembic(db_url):
+    """Start-up cost: a process that only reads a migrated store never loads Alembic."""
+    get_engine(db_url)
+    code = ("import sys; from inkmotion.store import list_jobs; "
+            f"assert list_jobs(limit=5, db_url={db_url!r}) == []; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'alembic'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
 
 
 def test_record_lifecycle(db_url):
@@ -48,12 +123,31 @@ def test_record_lifecycle(db_url):
     done = store.get_job(r.id, db_url)
     assert (done.status, done.attempts, done.worker_host) == ("succeeded", 2, "w2@b")
     assert done.finished and done.finished_at >= done.started_at >= done.created_at
-    assert done.artifact_dir == "/data/jobs/x/artifacts"
-    json.dumps(done.to_dict())
+    assert done.artifact_dir == "/data/jobs/x/artifacts" and done.metrics is None
+    assert json.loads(json.dumps(done.to_dict()))["metrics"] is None
     # a finished job can be neither restarted nor cancelled
     assert not store.mark_running(r.id, "w3@c", db_url)
     assert not store.mark_cancelled(r.id, db_url)
     assert not store.mark_failed(r.id, "late", db_url)
+
+
+def test_succeeded_job_keeps_its_metrics(db_url):
+    np = pytest.importorskip("numpy")
+    r = store.create_job({}, kind="evaluate", queue="optimise", db_url=db_url)
+    assert store.mark_running(r.id, "w1", db_url)
+    metrics = {"chamfer_mean_px": np.float32(0.125), "t_end_ratio": 0.14,
+               "per_stroke": np.array([1.0, 2.0]), "diverged": float("nan"), "n": np.int64(3)}
+    assert store.mark_succeeded(r.id, "/data/jobs/y/artifacts", db_url, metrics=metrics)
+    done = store.get_job(r.id, db_url)
+    assert done.metrics == {"chamfer_mean_px": 0.125, "t_end_ratio": 0.14,
+                            "per_stroke": [1.0, 2.0], "diverged": None, "n": 3}
+    assert json.loads(json.dumps(done.to_dict(), allow_nan=False))["metrics"] == done.metrics
+    assert store.list_jobs(db_url=db_url)[0].metrics == done.metrics
+    b = store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
+    assert store.mark_running(b.id, "w1", db_url)
+    with pytest.raises(TypeError, match="not JSON data"):
+        store.mark_succeeded(b.id, "/x", db_url, {"bad": object()})
+    assert store.get_job(b.id, db_url).status == "running"  # nothing was written
 
 
 def test_cancelled_and_failed_jobs_stay_so(db_url):

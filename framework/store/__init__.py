@@ -1,7 +1,8 @@
 """The job store: SQLAlchemy 2.x models, Alembic migrations and repository functions.
 
 The database is ``INKMOTION_DB_URL`` (default: a SQLite file in the data directory); its
-schema is upgraded to the latest Alembic revision on first use in a process.
+schema is upgraded to the latest Alembic revision on first use in a process (a database
+already at the head revision costs one ``SELECT`` and never imports Alembic).
 """
 
 from inkmotion.store.db import dispose_engines, get_engine, upgrade

@@ -4,6 +4,11 @@ One engine per database URL and process (a cache, not state: the same URL always
 equivalent engine). The schema is brought to the latest Alembic revision the first time a
 URL is used in a process; concurrent first uses from several workers are serialised by a
 file lock (SQLite) or an advisory lock (PostgreSQL).
+
+Start-up matters (``inkmotion jobs list`` should answer at once), and importing Alembic and
+loading its scripts costs about 0.25 s, so the first use first reads ``alembic_version``
+with plain SQLAlchemy: a database already at :data:`HEAD_REVISION` is used as is, and only
+a new or stale one goes through ``alembic upgrade`` (locks included).
 """
 
 from __future__ import annotations
@@ -14,8 +19,11 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine, create_engine, event
+from sqlalchemy import Engine, create_engine, event, text
 from sqlalchemy.engine import make_url
+from sqlalchemy.exc import OperationalError, ProgrammingError
+
+from inkmotion.store.migrations import HEAD_REVISION
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
 SQLITE_BUSY_TIMEOUT_MS = 30_000
@@ -72,17 +80,37 @@ def upgrade(engine: Engine, revision: str = "head") -> None:
     url = engine.url.render_as_string(hide_password=False)
     with _migration_lock(url), engine.begin() as conn:
         if conn.dialect.name == "postgresql":
-            from sqlalchemy import text
-
             conn.execute(text("SELECT pg_advisory_xact_lock(727001)"))
         cfg = alembic_config()
         cfg.attributes["connection"] = conn
         command.upgrade(cfg, revision)
 
 
+def schema_revisions(engine: Engine) -> tuple[str, ...] | None:
+    """The Alembic revisions ``engine``'s database is at, read with plain SQLAlchemy.
+
+    ``None`` when there is no ``alembic_version`` table yet (a new database). Reading it
+    this way, rather than through Alembic, keeps Alembic out of processes that need no
+    migration."""
+    try:
+        with engine.connect() as conn:
+            rows = conn.execute(text("SELECT version_num FROM alembic_version")).scalars()
+            return tuple(sorted(rows))
+    except (OperationalError, ProgrammingError):  # no such table (or no database yet)
+        return None
+
+
+def schema_is_current(engine: Engine) -> bool:
+    """Whether ``engine``'s database is exactly at the packaged head revision, so that
+    ``alembic upgrade head`` would do nothing and can be skipped."""
+    return schema_revisions(engine) == (HEAD_REVISION,)
+
+
 def get_engine(url: str, migrate: bool = True) -> Engine:
     """The engine for ``url``, its schema upgraded to the latest revision (once per process).
 
+    With ``migrate`` a database already at :data:`HEAD_REVISION` costs one ``SELECT``;
+    any other (new, older, or one Alembic must judge) is upgraded by :func:`upgrade`.
     Engines are cached per process id, so a forked child (Celery prefork) never reuses
     its parent's connections."""
     key = (os.getpid(), url, migrate)
@@ -101,7 +129,7 @@ def _create(url: str, migrate: bool) -> Engine:
     engine = create_engine(url, **kwargs)
     if engine.dialect.name == "sqlite":
         event.listen(engine, "connect", _sqlite_pragmas)
-    if migrate:
+    if migrate and not schema_is_current(engine):
         upgrade(engine)
     return engine
 

@@ -71,3 +71,6 @@ class Job(Base):
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     error: Mapped[str | None] = mapped_column(Text, nullable=True)
     artifact_dir: Mapped[str | None] = mapped_column(Text, nullable=True)
+    # the job kind's summary figures at success, e.g. {"chamfer_mean_px": 0.12}: one
+    # generic JSON column, so new job kinds never need new columns (revision 0002)
+    metrics: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)

@@ -8,6 +8,7 @@ Records are returned as plain :class:`JobRecord` snapshots, detached from any se
 
 from __future__ import annotations
 
+import math
 import uuid
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass
@@ -23,7 +24,11 @@ from inkmotion.store.models import FINAL_STATUSES, STATUSES, Job, utcnow
 
 @dataclass(frozen=True)
 class JobRecord:
-    """A snapshot of one job row."""
+    """A snapshot of one job row.
+
+    ``metrics`` holds the job kind's summary figures once it succeeded (``None`` before,
+    and for jobs recorded before revision 0002); it comes last with a default so that
+    code building records by keyword keeps working."""
 
     id: str
     kind: str
@@ -43,13 +48,14 @@ class JobRecord:
     attempts: int
     error: str | None
     artifact_dir: str | None
+    metrics: dict[str, Any] | None = None
 
     @property
     def finished(self) -> bool:
         return self.status in FINAL_STATUSES
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict (ISO 8601 timestamps)."""
+        """JSON-ready dict of every field, ``metrics`` included (ISO 8601 timestamps)."""
         d = asdict(self)
         for k, v in d.items():
             if isinstance(v, datetime):
@@ -158,11 +164,39 @@ def update_progress(job_id: str, step: int, total: int, losses: dict[str, float]
                    t_end=t_end)
 
 
-def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None) -> bool:
-    """The job's artifacts are complete at ``artifact_dir``."""
-    now = utcnow()
+def _json_value(value: Any) -> Any:
+    """``value`` as plain JSON: NumPy/torch scalars and arrays via ``item``/``tolist``, and
+    NaN or infinities as ``None`` (strict JSON; PostgreSQL's ``json`` rejects NaN)."""
+    if isinstance(value, float):
+        return float(value) if math.isfinite(value) else None  # np.float64 -> float
+    if isinstance(value, dict):
+        return {str(k): _json_value(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_value(v) for v in value]
+    if value is None or isinstance(value, (str, int)):
+        return value
+    for method in ("item", "tolist"):  # numpy / torch scalars, arrays, tensors
+        if callable(getattr(value, method, None)):
+            try:
+                return _json_value(getattr(value, method)())
+            except (TypeError, ValueError, RuntimeError):
+                continue
+    raise TypeError(f"Metric value {value!r} ({type(value).__name__}) is not JSON data.")
+
+
+def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None,
+                   metrics: dict[str, Any] | None = None) -> bool:
+    """The job's artifacts are complete at ``artifact_dir``; ``metrics`` are the job kind's
+    summary figures (e.g. ``{"chamfer_mean_px": 0.12}``), stored in the generic JSON column
+    so that every job kind can report its own. They are normalised to plain JSON first
+    (see :func:`_json_value`), so a NumPy float cannot make the final update fail; an
+    unserialisable value raises ``TypeError`` before anything is written. ``None`` leaves
+    the column as it is."""
+    values: dict[str, Any] = {}
+    if metrics is not None:
+        values["metrics"] = _json_value(dict(metrics))
     return _update(job_id, ("running",), db_url, status="succeeded", artifact_dir=artifact_dir,
-                   finished_at=now, error=None)
+                   finished_at=utcnow(), error=None, **values)
 
 
 def mark_failed(job_id: str, error: str, db_url: str | None = None) -> bool:
