@@ -15,7 +15,13 @@ job store — does not import torch.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ loads them
+    from inkmotion.geometry.bezier import bezier_segments
+    from inkmotion.plugin_host.manager import plugin
+    from inkmotion.sigma_lognormal.kinematics import kinematics
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
 
 __version__ = "0.1.0"
 
@@ -32,6 +38,7 @@ __all__ = ["Drawing", "MotorPlan", "__version__", "bezier_segments", "kinematics
 
 
 def __getattr__(name: str) -> Any:
+    """Import a public name's module on first access (PEP 562) and cache the name here."""
     module = _PUBLIC.get(name)
     if module is None:
         raise AttributeError(f"module 'inkmotion' has no attribute {name!r}")
@@ -41,4 +48,5 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
+    """The public names, loaded or not, beside what the module already holds."""
     return sorted(set(globals()) | set(__all__))

@@ -137,10 +137,80 @@ def _parse_text(text: str, source: str) -> list[_Tag]:
     return _parse_json(stripped, source)
 
 
+# --- one walk for both forms -------------------------------------------------------------
+
+
+class _Node:
+    """A document node seen the same way in XML and JSON, so that :func:`_tag` walks both.
+
+    Names are passed as the spec spells them (``screenBounds``); each form matches its way.
+    """
+
+    def children(self, name: str) -> list[_Node]:
+        """Every child called ``name``, in document order."""
+        raise NotImplementedError
+
+    def child(self, name: str) -> _Node | None:
+        """The first child called ``name``, or None."""
+        found = self.children(name)
+        return found[0] if found else None
+
+    def scalar(self, name: str) -> Any:
+        """The raw value of child ``name`` (element text, JSON value), or None."""
+        raise NotImplementedError
+
+    def number(self, name: str, source: str) -> float | None:
+        """The number in child ``name`` (often a string); None when absent or blank."""
+        value = self.scalar(name)
+        if value is None or (isinstance(value, str) and not value.strip()):
+            return None
+        return _number(value, name, source)
+
+    def attr(self, name: str) -> Any:
+        """Attribute ``name`` (``isDrawing``), or None; by default the child's value."""
+        return self.scalar(name)
+
+
+def _tag(node: _Node, source: str) -> _Tag:
+    """One GML tag: screen bounds and up vector from its environment (under ``header`` or,
+    for some writers, directly in the tag), then the pen-down strokes of all its drawings."""
+    tag = _Tag()
+    header = node.child("header")
+    env = (header.child("environment") if header else None) or node.child("environment")
+    bounds = env.child("screenBounds") if env else None
+    if bounds is not None:
+        tag.bounds = _bounds(bounds.number("x", source), bounds.number("y", source))
+    up = env.child("up") if env else None
+    if up is not None:
+        tag.up = _up(up.number("x", source), up.number("y", source))
+    for drawing in node.children("drawing"):
+        for stroke in drawing.children("stroke"):
+            if _is_drawing(stroke.attr("isDrawing")):
+                tag.strokes.append(_stroke(tag, stroke, source))
+    return tag
+
+
+def _stroke(tag: _Tag, node: _Node, source: str) -> _Stroke:
+    """One stroke's points with their ``<t>`` (or older ``<time>``) times; points without
+    both x and y are skipped. The point limit counts the tag's earlier strokes too."""
+    points: list[tuple[float, float]] = []
+    times: list[float | None] = []
+    for pt in node.children("pt"):
+        x, y = pt.number("x", source), pt.number("y", source)
+        if x is None or y is None:
+            continue
+        t = pt.number("t", source)
+        points.append((x, y))
+        times.append(pt.number("time", source) if t is None else t)
+    _check_count(tag, points, source)
+    return _Stroke(points, times)
+
+
 # --- XML ---------------------------------------------------------------------------------
 
 
 def _parse_xml(text: str, source: str) -> list[_Tag]:
+    """Parse GML XML and walk every ``<tag>`` of its ``<gml>`` root."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
@@ -149,7 +219,7 @@ def _parse_xml(text: str, source: str) -> list[_Tag]:
         ) from exc
     if _lower(root.tag) != "gml":
         raise InputError(f"{source}: the root element is <{root.tag}>, not <gml>; give a GML file.")
-    tags = [_xml_tag(el, source) for el in _children(root, "tag")]
+    tags = [_tag(el, source) for el in _XmlNode(root).children("tag")]
     if not tags:
         raise InputError(f"{source}: the GML has no <tag> element, so there is nothing to draw.")
     return tags
@@ -160,60 +230,36 @@ def _lower(tag: str) -> str:
     return tag.rsplit("}", 1)[-1].lower()
 
 
-def _children(el: ET.Element, name: str) -> list[ET.Element]:
-    return [c for c in el if _lower(c.tag) == name]
+class _XmlNode(_Node):
+    """An XML element. Names match case-insensitively and without namespace, because writers
+    differ (``screenBounds`` and ``screenbounds`` both occur)."""
 
+    def __init__(self, el: ET.Element) -> None:
+        self.el = el
 
-def _child(el: ET.Element | None, name: str) -> ET.Element | None:
-    if el is None:
-        return None
-    found = _children(el, name)
-    return found[0] if found else None
+    def _elements(self, name: str) -> list[ET.Element]:
+        """The child elements called ``name``."""
+        return [c for c in self.el if _lower(c.tag) == name.lower()]
 
+    def children(self, name: str) -> list[_Node]:
+        """Every child element called ``name``, in document order."""
+        return [_XmlNode(c) for c in self._elements(name)]
 
-def _xml_number(el: ET.Element | None, name: str, source: str) -> float | None:
-    """The number in child ``name`` of ``el``; None when absent or blank."""
-    c = _child(el, name)
-    if c is None or c.text is None or not c.text.strip():
-        return None
-    return _number(c.text, name, source)
+    def scalar(self, name: str) -> str | None:
+        """The text of the first child element called ``name``, or None."""
+        found = self._elements(name)
+        return found[0].text if found else None
 
-
-def _xml_tag(el: ET.Element, source: str) -> _Tag:
-    tag = _Tag()
-    env = _child(_child(el, "header"), "environment")
-    if env is None:  # some writers put <environment> directly in <tag>
-        env = _child(el, "environment")
-    bounds = _child(env, "screenbounds")
-    if bounds is not None:
-        tag.bounds = _bounds(_xml_number(bounds, "x", source), _xml_number(bounds, "y", source))
-    up = _child(env, "up")
-    if up is not None:
-        tag.up = _up(_xml_number(up, "x", source), _xml_number(up, "y", source))
-    for drawing in _children(el, "drawing"):
-        for stroke in _children(drawing, "stroke"):
-            if not _is_drawing(stroke.get("isdrawing", stroke.get("isDrawing"))):
-                continue
-            points: list[tuple[float, float]] = []
-            times: list[float | None] = []
-            for pt in _children(stroke, "pt"):
-                x, y = _xml_number(pt, "x", source), _xml_number(pt, "y", source)
-                if x is None or y is None:
-                    continue
-                t = _xml_number(pt, "t", source)
-                if t is None:
-                    t = _xml_number(pt, "time", source)
-                points.append((x, y))
-                times.append(t)
-            _check_count(tag, points, source)
-            tag.strokes.append(_Stroke(points, times))
-    return tag
+    def attr(self, name: str) -> str | None:
+        """Attribute ``name`` in lower case, else as spelled (``isdrawing``, ``isDrawing``)."""
+        return self.el.get(name.lower(), self.el.get(name))
 
 
 # --- JSON --------------------------------------------------------------------------------
 
 
 def _parse_json(text: str, source: str) -> list[_Tag]:
+    """Parse 000000book JSON or JSONP and walk every tag of its ``gml`` object."""
     body = text
     if not text.startswith(("{", "[")):
         match = _JSONP.match(text)
@@ -236,64 +282,56 @@ def _parse_json(text: str, source: str) -> list[_Tag]:
         return _parse_xml(gml.lstrip(), source)
     if not isinstance(gml, dict):
         raise InputError(f'{source}: the JSON has no "gml" object; give a 000000book GML JSON.')
-    tags = [_json_tag(t, source) for t in _as_list(_key(gml, "tag"))]
+    tags = [_tag(_json_tag(t, source), source) for t in _as_list(_key(gml, "tag"))]
     if not tags:
         raise InputError(f"{source}: the GML has no tag, so there is nothing to draw.")
     return tags
 
 
+def _json_tag(value: Any, source: str) -> _Node:
+    """A JSON tag as a node; a tag must be an object."""
+    if not isinstance(value, dict):
+        raise InputError(f"{source}: a GML tag is not an object; give a 000000book GML JSON.")
+    return _JsonNode(value)
+
+
 def _key(obj: Any, name: str) -> Any:
-    """``obj[name]`` matched case-insensitively (also ``@name``), or None."""
+    """``obj[name]`` matched case-insensitively (also ``@name``, ``_name``), or None."""
     if not isinstance(obj, dict):
         return None
     for k, v in obj.items():
-        if isinstance(k, str) and k.lower().lstrip("@_") == name:
+        if isinstance(k, str) and k.lower().lstrip("@_") == name.lower():
             return v
     return None
 
 
 def _as_list(value: Any) -> list:
+    """A JSON value that may be a list or a single item, as a list (None: empty)."""
     if value is None:
         return []
     return value if isinstance(value, list) else [value]
 
 
-def _json_number(obj: Any, name: str, source: str) -> float | None:
-    value = _key(obj, name)
-    if value is None or (isinstance(value, str) and not value.strip()):
-        return None
-    return _number(value, name, source)
+class _JsonNode(_Node):
+    """A JSON value; keys match as :func:`_key` does and a child may be a list or one item.
+    A non-object has no children or values, so it adds nothing (such a stroke stays empty)."""
 
+    def __init__(self, obj: Any) -> None:
+        self.obj = obj
 
-def _json_tag(obj: Any, source: str) -> _Tag:
-    if not isinstance(obj, dict):
-        raise InputError(f"{source}: a GML tag is not an object; give a 000000book GML JSON.")
-    tag = _Tag()
-    env = _key(_key(obj, "header"), "environment") or _key(obj, "environment")
-    bounds = _key(env, "screenbounds")
-    if isinstance(bounds, dict):
-        tag.bounds = _bounds(_json_number(bounds, "x", source), _json_number(bounds, "y", source))
-    up = _key(env, "up")
-    if isinstance(up, dict):
-        tag.up = _up(_json_number(up, "x", source), _json_number(up, "y", source))
-    for drawing in _as_list(_key(obj, "drawing")):
-        for stroke in _as_list(_key(drawing, "stroke")):
-            if not isinstance(stroke, dict) or not _is_drawing(_key(stroke, "isdrawing")):
-                continue
-            points: list[tuple[float, float]] = []
-            times: list[float | None] = []
-            for pt in _as_list(_key(stroke, "pt")):
-                x, y = _json_number(pt, "x", source), _json_number(pt, "y", source)
-                if x is None or y is None:
-                    continue
-                t = _json_number(pt, "t", source)
-                if t is None:
-                    t = _json_number(pt, "time", source)
-                points.append((x, y))
-                times.append(t)
-            _check_count(tag, points, source)
-            tag.strokes.append(_Stroke(points, times))
-    return tag
+    def children(self, name: str) -> list[_Node]:
+        """The items of the list under key ``name``, or its single value."""
+        return [_JsonNode(v) for v in _as_list(_key(self.obj, name))]
+
+    def child(self, name: str) -> _Node | None:
+        """The value under key ``name``; None when missing or empty (falsy), so an empty
+        header environment falls back to the tag's own one."""
+        value = _key(self.obj, name)
+        return _JsonNode(value) if value else None
+
+    def scalar(self, name: str) -> Any:
+        """The value under key ``name``, or None."""
+        return _key(self.obj, name)
 
 
 # --- shared ------------------------------------------------------------------------------

@@ -5,7 +5,9 @@ import pytest
 import torch
 
 import inkmotion
+from inkmotion.errors import SpecError
 from inkmotion.geometry.traces import Traces
+from inkmotion.plugin_host.protocols import JobInputs
 from inkmotion.plugins.dce import dce, dce_indices
 
 
@@ -67,7 +69,8 @@ def test_plugin_registered_and_makes_plans() -> None:
     init = inkmotion.plugin("initialiser", "dce")
     assert init.name == "dce" and init.description
     traces = Traces([_square(), np.column_stack((np.linspace(0, 9, 30), np.zeros(30)))])
-    plans = init(traces, threshold=1.0, width=2.0, dtype=torch.float64)
+    plans = init(JobInputs((20, 20), traces=traces), threshold=1.0, width=2.0,
+                 dtype=torch.float64)
     assert [p.m for p in plans] == [4, 1]
     p = plans[0]
     assert p.points.dtype == torch.float64 and p.width == 2.0
@@ -75,6 +78,8 @@ def test_plugin_registered_and_makes_plans() -> None:
     torch.testing.assert_close(p.delta, torch.zeros(4, dtype=torch.float64))
     torch.testing.assert_close(p.ac, torch.full((4,), 0.01, dtype=torch.float64))
     torch.testing.assert_close(p.T, torch.full((4,), 0.8, dtype=torch.float64))
+    with pytest.raises(SpecError, match="dce initialiser needs traces"):
+        init(JobInputs((20, 20), caption="a cat"))
 
 
 @pytest.mark.parametrize("n", [5000])

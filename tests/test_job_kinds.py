@@ -246,7 +246,8 @@ def test_cpu_runs_reproduce_bit_for_bit(tmp_path: Path) -> None:
     spec = JobSpec("fit", {"drawing": "text:ok"}, params={"steps": 8, "size": 96}, device="cpu")
     run_job(spec, tmp_path / "a")
     run_job(spec, tmp_path / "b")
-    assert (tmp_path / "a" / "plan.json").read_bytes() == (tmp_path / "b" / "plan.json").read_bytes()
+    first, second = (tmp_path / d / "plan.json" for d in ("a", "b"))
+    assert first.read_bytes() == second.read_bytes()
 
 
 def test_fitting_does_not_import_jobs() -> None:

@@ -11,13 +11,26 @@ from hypothesis import strategies as st
 
 import inkmotion.sigma_lognormal.kinematics as kin_module
 from inkmotion import MotorPlan, kinematics
-from inkmotion.sigma_lognormal import PlanBatch, batch_kinematics
+from inkmotion.sigma_lognormal import (
+    GridLayout,
+    PlanBatch,
+    batch_kinematics,
+    evaluate_kinematics,
+)
+from inkmotion.sigma_lognormal.kinematics import plan_window, uniform_times
 from inkmotion.sigma_lognormal.params import sigma_mu
 
 F64 = torch.float64
 
 
-def make_plan(m: int, dim: int, delta: float | None, seed: int) -> MotorPlan:
+def on(plan: MotorPlan, device: torch.device) -> MotorPlan:
+    """The plan with its tensors on ``device``."""
+    return MotorPlan(*(getattr(plan, k).to(device) for k in ("points", "delta_t", "delta", "ac",
+                                                              "T")), plan.width)
+
+
+def make_plan(m: int, dim: int, delta: float | None, seed: int,
+              device: torch.device | str = "cpu") -> MotorPlan:
     g = torch.Generator().manual_seed(seed)
     pts = torch.cumsum(torch.randn(m + 1, dim, generator=g, dtype=F64) * 30.0, 0)
     if dim == 3:
@@ -29,7 +42,7 @@ def make_plan(m: int, dim: int, delta: float | None, seed: int) -> MotorPlan:
         plan.delta.uniform_(-math.pi / 2, math.pi / 2, generator=g)
     else:
         plan.delta.fill_(delta)
-    return plan
+    return on(plan, torch.device(device))
 
 
 DELTAS = [0.0, 1e-9, 1e-4, -1e-4, math.pi / 2, -math.pi / 2, None]
@@ -37,10 +50,10 @@ DELTAS = [0.0, 1e-9, 1e-4, -1e-4, math.pi / 2, -math.pi / 2, None]
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("delta", DELTAS)
-def test_finite_differences(dim: int, delta: float | None) -> None:
-    plan = make_plan(8, dim, delta, seed=3)
+def test_finite_differences(dim: int, delta: float | None, device: torch.device) -> None:
+    plan = make_plan(8, dim, delta, seed=3, device=device)
     t_end = float(plan.end_time)
-    t = torch.rand(300, generator=torch.Generator().manual_seed(1), dtype=F64) * t_end
+    t = torch.rand(300, generator=torch.Generator().manual_seed(1), dtype=F64).to(device) * t_end
     h = 1e-6
     x_p, v_p, _ = kinematics(plan, t + h)
     x_m, v_m, _ = kinematics(plan, t - h)
@@ -53,11 +66,12 @@ def test_finite_differences(dim: int, delta: float | None) -> None:
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("delta", DELTAS)
-def test_end_points(dim: int, delta: float | None) -> None:
+def test_end_points(dim: int, delta: float | None, device: torch.device) -> None:
     """With a common Ac (as fitted), every ±3σ window lies in [0, T_end]."""
-    plan = make_plan(6, dim, delta, seed=7)
+    plan = make_plan(6, dim, delta, seed=7, device=device)
     plan.ac.fill_(0.01)
-    x = kinematics(plan, torch.tensor([0.0, float(plan.end_time)], dtype=F64)).positions
+    x = kinematics(plan, torch.tensor([0.0, float(plan.end_time)], dtype=F64,
+                                      device=device)).positions
     length = (plan.points[1:, :2] - plan.points[:-1, :2]).norm(dim=1).sum()
     assert (x[0, :2] - plan.points[0, :2]).norm() <= 0.005 * length
     assert (x[1, :2] - plan.points[-1, :2]).norm() <= 0.005 * length
@@ -92,16 +106,17 @@ def paper_position(plan: MotorPlan, t: torch.Tensor) -> torch.Tensor:
 
 
 @pytest.mark.parametrize("delta", [0.0, 0.7, -1.3, None])
-def test_position_matches_paper_closed_form(delta: float | None) -> None:
+def test_position_matches_paper_closed_form(delta: float | None, device: torch.device) -> None:
     plan = make_plan(4, 3, delta, seed=11)
     t = torch.linspace(0, float(plan.end_time), 40, dtype=F64)
-    torch.testing.assert_close(kinematics(plan, t).positions, paper_position(plan, t),
+    got = kinematics(on(plan, device), t.to(device)).positions.cpu()
+    torch.testing.assert_close(got, paper_position(plan, t),
                                atol=1e-6 * plan.points.abs().max(), rtol=0)
 
 
-def test_window_equals_dense(monkeypatch: pytest.MonkeyPatch) -> None:
-    plan = make_plan(30, 2, None, seed=5)
-    t = torch.linspace(0, float(plan.end_time), 500, dtype=F64)
+def test_window_equals_dense(monkeypatch: pytest.MonkeyPatch, device: torch.device) -> None:
+    plan = make_plan(30, 2, None, seed=5, device=device)
+    t = torch.linspace(0, float(plan.end_time), 500, dtype=F64, device=device)
     windowed = kinematics(plan, t)
     monkeypatch.setattr(kin_module, "SUPPORT_SIGMAS", 60.0)  # every sample in every window
     dense = kinematics(plan, t)
@@ -111,30 +126,31 @@ def test_window_equals_dense(monkeypatch: pytest.MonkeyPatch) -> None:
         torch.testing.assert_close(got, ref, atol=tol * float(ref.abs().max()), rtol=0)
 
 
-def test_batch_equals_single_paths() -> None:
-    plans = [make_plan(m, 2, None, seed=m) for m in (1, 5, 12)]
-    times = [torch.linspace(0, float(p.end_time), 37, dtype=F64) for p in plans]
-    out = batch_kinematics(PlanBatch.from_plans(plans), torch.cat(times),
-                           torch.tensor([37, 37, 37]))
+def test_batch_equals_single_paths(device: torch.device) -> None:
+    plans = [make_plan(m, 2, None, seed=m, device=device) for m in (1, 5, 12)]
+    times = [torch.linspace(0, float(p.end_time), 37, dtype=F64, device=device) for p in plans]
+    batch = PlanBatch.from_plans(plans)
+    layout = batch.layout(torch.full((3,), 37, device=device), n_samples=111)
+    out = batch_kinematics(batch, torch.cat(times), layout)
     parts = torch.split(out.positions, 37)
     for p, t, part in zip(plans, times, parts, strict=True):
         torch.testing.assert_close(part, kinematics(p, t).positions)
 
 
-def test_unsorted_times_are_accepted() -> None:
-    plan = make_plan(5, 2, None, seed=2)
-    t = torch.linspace(0, float(plan.end_time), 50, dtype=F64)
-    perm = torch.randperm(50, generator=torch.Generator().manual_seed(0))
+def test_unsorted_times_are_accepted(device: torch.device) -> None:
+    plan = make_plan(5, 2, None, seed=2, device=device)
+    t = torch.linspace(0, float(plan.end_time), 50, dtype=F64, device=device)
+    perm = torch.randperm(50, generator=torch.Generator().manual_seed(0)).to(device)
     expected = kinematics(plan, t).positions[perm]
     torch.testing.assert_close(kinematics(plan, t[perm]).positions, expected)
 
 
 @pytest.mark.parametrize("delta", [0.0, 1e-12, math.pi / 2])
-def test_gradients_finite(delta: float) -> None:
-    plan = make_plan(6, 3, delta, seed=4)
+def test_gradients_finite(delta: float, device: torch.device) -> None:
+    plan = make_plan(6, 3, delta, seed=4, device=device)
     for name in ("points", "delta_t", "delta", "ac"):
         getattr(plan, name).requires_grad_(True)
-    t = torch.linspace(0, float(plan.end_time.detach()), 100, dtype=F64)
+    t = torch.linspace(0, float(plan.end_time.detach()), 100, dtype=F64, device=device)
     x, v, a = kinematics(plan, t)
     (x.sum() + v.sum() + a.sum() + plan.end_time).backward()
     for name in ("points", "delta_t", "delta", "ac"):
@@ -159,3 +175,95 @@ def test_end_time_matches_onsets() -> None:
     expected = float(plan.delta_t[1] * plan.T[1] + plan.T[1])
     assert float(plan.end_time) == pytest.approx(expected, rel=1e-9)
     assert float(torch.exp(mu + 3 * sigma)[0] - torch.exp(mu - 3 * sigma)[0]) == pytest.approx(0.8)
+
+
+def needed_window(batch: PlanBatch, layout: GridLayout) -> int:
+    """The most samples of the fitting grid any sub-movement's support covers."""
+    times, _ = uniform_times(batch, layout)
+    sigma, mu, t0 = batch.timing(layout)
+    lo, hi, _ = kin_module._window_bounds(times, t0, sigma, mu, layout)
+    return int((hi - lo).max())
+
+
+def fitting_batch(device: torch.device, ms: tuple[int, ...] = (3, 17, 40)) -> PlanBatch:
+    return PlanBatch.from_plans([make_plan(m, 2, None, seed=m, device=device) for m in ms])
+
+
+def test_layout_indices(device: torch.device) -> None:
+    batch = fitting_batch(device, (2, 3))
+    layout = batch.layout()  # counts 11, 16
+    assert (layout.n_paths, layout.n_moves, layout.n_samples, layout.n_segments) == (2, 5, 27, 25)
+    assert layout.counts.tolist() == [11, 16] and layout.block_start.tolist() == [0, 11]
+    assert layout.move_path.tolist() == [0, 0, 1, 1, 1]
+    assert layout.first.tolist() == [True, False, True, False, False]
+    assert layout.last.tolist() == [False, True, False, False, True]
+    assert layout.move_first.tolist() == [0, 0, 2, 2, 2]
+    assert layout.move_point.tolist() == [1, 2, 4, 5, 6]
+    assert layout.start_point.tolist() == [0, 3]
+    assert layout.segment_start.tolist() == list(range(10)) + list(range(11, 26))
+    assert layout.sample_step.tolist() == list(range(11)) + list(range(16))
+
+
+def test_static_window_equals_dynamic(device: torch.device) -> None:
+    """A static window wider than every support gives the very same kinematics."""
+    batch = fitting_batch(device)
+    layout = batch.layout()
+    times, _ = uniform_times(batch, layout)
+    dynamic, none = evaluate_kinematics(batch, times, layout)
+    static_layout = plan_window(batch, times, layout)
+    assert none is None and static_layout.window is not None
+    static, overflow = evaluate_kinematics(batch, times, static_layout)
+    assert not bool(overflow)
+    for got, ref in zip(static, dynamic, strict=True):
+        if device.type == "cpu":
+            assert torch.equal(got, ref)
+        else:  # index_add order is not deterministic on CUDA
+            torch.testing.assert_close(got, ref)
+
+
+def test_static_window_too_small_is_flagged_and_degrades_gracefully(device: torch.device) -> None:
+    batch = fitting_batch(device)
+    layout = batch.layout()
+    times, _ = uniform_times(batch, layout)
+    ref = batch_kinematics(batch, times, layout)
+    need = needed_window(batch, layout)
+    small, overflow = evaluate_kinematics(batch, times, layout.with_window(need - 2))
+    assert bool(overflow)
+    # the window keeps the samples around the median: the tails lost are small
+    scale = float(ref.positions.abs().max())
+    assert float((small.positions - ref.positions).abs().max()) < 0.05 * scale
+    exact, alarm = evaluate_kinematics(batch, times, layout.with_window(need))
+    assert bool(alarm)  # nothing truncated yet, but the flag asks for a replan already
+    for got, want in zip(exact, ref, strict=True):
+        torch.testing.assert_close(got, want)
+    _, fits = evaluate_kinematics(batch, times, layout.with_window(need * 4 // 3 + 1))
+    assert not bool(fits)
+
+
+def test_public_api_equals_layout_path(device: torch.device) -> None:
+    """kinematics(plan, t) (a layout per call) equals the fitting-grid evaluation."""
+    plan = make_plan(9, 3, None, seed=8, device=device)
+    batch = PlanBatch.from_plans([plan])
+    layout = batch.layout()
+    times, _ = uniform_times(batch, layout)
+    torch.testing.assert_close(kinematics(plan, times).positions,
+                               batch_kinematics(batch, times, layout).positions)
+
+
+@settings(max_examples=25, deadline=None)
+@given(ms=st.lists(st.integers(1, 60), min_size=1, max_size=3), seed=st.integers(0, 10_000),
+       dt_low=st.floats(0.1, 0.9), ac_high=st.floats(1e-4, 0.1))
+def test_property_clamp_window_covers_every_clamped_plan(ms: list[int], seed: int,
+                                                           dt_low: float, ac_high: float) -> None:
+    """A window planned with the clamps (Δt ≥ 0.1, Ac ≤ 0.1) on the initial plans covers
+    every support of any plan within them, however far the fit takes Δt and Ac."""
+    batch = PlanBatch.from_plans([MotorPlan.from_points(
+        torch.cumsum(torch.randn(m + 1, 2, generator=torch.Generator().manual_seed(seed + m),
+                                 dtype=F64) * 20, 0), dtype=F64) for m in ms])
+    layout = batch.layout()
+    planned = plan_window(batch, uniform_times(batch, layout)[0], layout, min_delta_t=0.1,
+                          max_ac=0.1)
+    g = torch.Generator().manual_seed(seed)
+    batch.delta_t.uniform_(dt_low, max(dt_low, 0.9), generator=g)
+    batch.ac.uniform_(1e-4, ac_high, generator=g)
+    assert needed_window(batch, layout) <= planned.window

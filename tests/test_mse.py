@@ -1,41 +1,52 @@
 """Multi-scale MSE: zero at identity, ordering, gradients, level count."""
 
+import subprocess
+import sys
+
 import pytest
 import torch
 
 import inkmotion
-from inkmotion.plugins.mse import default_levels, multiscale_mse, pyramid
+from inkmotion.image_losses.multiscale_mse import (
+    default_levels,
+    multiscale_mse,
+    prepare_multiscale_mse,
+    pyramid,
+)
+from inkmotion.plugin_host.protocols import Reference
 
 
-def _disc(h: int, w: int, cx: float, cy: float, r: float = 6.0) -> torch.Tensor:
-    y, x = torch.meshgrid(torch.arange(h, dtype=torch.float64),
-                          torch.arange(w, dtype=torch.float64), indexing="ij")
+def _disc(h: int, w: int, cx: float | torch.Tensor, cy: float, r: float = 6.0,
+          device: torch.device | str = "cpu") -> torch.Tensor:
+    y, x = torch.meshgrid(torch.arange(h, dtype=torch.float64, device=device),
+                          torch.arange(w, dtype=torch.float64, device=device), indexing="ij")
     return torch.sigmoid(2.0 * (r - torch.hypot(x - cx, y - cy)))
 
 
-def test_zero_for_identical() -> None:
-    a = _disc(64, 48, 20, 20)
+def test_zero_for_identical(device: torch.device) -> None:
+    a = _disc(64, 48, 20, 20, device=device)
     assert float(multiscale_mse(a, a.clone())) == 0.0
     loss = inkmotion.plugin("image-loss", "mse").prepare(a)
     assert float(loss(a.clone())) == 0.0
 
 
-def test_positive_and_decreasing_as_images_approach() -> None:
-    target = _disc(64, 64, 40, 40)
+def test_positive_and_decreasing_as_images_approach(device: torch.device) -> None:
+    target = _disc(64, 64, 40, 40, device=device)
     loss = inkmotion.plugin("image-loss", "mse").prepare(target)
-    values = [float(loss(_disc(64, 64, 40 - s, 40 - s))) for s in (24, 16, 8, 4, 1)]
+    values = [float(loss(_disc(64, 64, 40 - s, 40 - s, device=device)))
+              for s in (24, 16, 8, 4, 1)]
     assert all(v > 0 for v in values)
     assert values == sorted(values, reverse=True)
     # the coarse levels still see discs that do not overlap at full resolution
-    far = _disc(64, 64, 10, 10)
+    far = _disc(64, 64, 10, 10, device=device)
     assert float(loss(far)) > float(torch.nn.functional.mse_loss(far, target))
 
 
-def test_gradient_flows() -> None:
-    target = _disc(40, 40, 25, 20)
-    cx = torch.tensor(10.3, dtype=torch.float64, requires_grad=True)
+def test_gradient_flows(device: torch.device) -> None:
+    target = _disc(40, 40, 25, 20, device=device)
+    cx = torch.tensor(10.3, dtype=torch.float64, device=device, requires_grad=True)
     loss = inkmotion.plugin("image-loss", "mse").prepare(target)
-    value = loss(_disc(40, 40, cx, 20.5))
+    value = loss(_disc(40, 40, cx, 20.5, device=device))
     value.backward()
     assert cx.grad is not None and float(cx.grad) < 0  # moving right reduces the loss
     a = torch.rand(1, 1, 12, 12, dtype=torch.float64).squeeze().requires_grad_()
@@ -52,19 +63,34 @@ def test_number_of_levels(h: int, w: int, n: int) -> None:
     assert levels[-1].shape[-1] == -(-w // 2 ** (n - 1))
 
 
-def test_dtype_follows_input() -> None:
-    t = torch.rand(32, 32)
+def test_dtype_follows_input(device: torch.device) -> None:
+    t = torch.rand(32, 32, device=device)
     loss = inkmotion.plugin("image-loss", "mse").prepare(t)
-    assert loss(torch.rand(32, 32, dtype=torch.float64)).dtype == torch.float64
+    assert loss(torch.rand(32, 32, dtype=torch.float64, device=device)).dtype == torch.float64
     assert multiscale_mse(t, t, 2).dtype == torch.float32
 
 
-def test_matrix_operators_equal_convolution_pyramid() -> None:
+def test_matrix_operators_equal_convolution_pyramid(device: torch.device) -> None:
     """prepare()'s fast separable operators compute exactly the blur-and-pool pyramid."""
-    from inkmotion.plugins.mse import MultiscaleMse, multiscale_mse
-
     g = torch.Generator().manual_seed(0)
-    target = (torch.rand(37, 61, generator=g, dtype=torch.float64) > 0.8).double()
-    image = torch.rand(37, 61, generator=g, dtype=torch.float64)
-    fast = MultiscaleMse().prepare(target)(image)
+    target = (torch.rand(37, 61, generator=g, dtype=torch.float64) > 0.8).double().to(device)
+    image = torch.rand(37, 61, generator=g, dtype=torch.float64).to(device)
+    fast = prepare_multiscale_mse(target)(image)
     torch.testing.assert_close(fast, multiscale_mse(image, target))
+
+
+def test_plugin_takes_a_reference_and_levels() -> None:
+    target = _disc(64, 64, 30, 30)
+    plugin = inkmotion.plugin("image-loss", "mse")
+    image = _disc(64, 64, 25, 30)
+    torch.testing.assert_close(plugin.prepare(Reference(image=target), levels=2)(image),
+                               multiscale_mse(image, target, 2))
+
+
+def test_plugin_module_imports_no_torch() -> None:
+    """The plugin module registers only: torch and the implementation load on first use."""
+    code = ("import sys, inkmotion.plugins.mse as m; m.inkmotion_image_losses(); "
+            "print([n for n in sys.modules"
+            " if n == 'torch' or n.startswith('inkmotion.image_losses')])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -10,6 +10,8 @@ import torch
 
 from inkmotion import Drawing, MotorPlan, bezier_segments, kinematics
 from inkmotion.errors import InputError
+from inkmotion.geometry.bezier import batch_bezier_segments
+from inkmotion.sigma_lognormal import PlanBatch
 
 F64 = torch.float64
 
@@ -61,14 +63,19 @@ def test_missing_plan_index(tmp_path) -> None:
         MotorPlan.load(tmp_path / "p.json", index=3)
 
 
+def on(plan: MotorPlan, device: torch.device) -> MotorPlan:
+    return MotorPlan(*(getattr(plan, k).to(device) for k in ("points", "delta_t", "delta", "ac",
+                                                              "T")), plan.width)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
-def test_bezier_reproduces_samples_and_tangents(dim: int) -> None:
-    plan = sample_plan(dim)
+def test_bezier_reproduces_samples_and_tangents(dim: int, device: torch.device) -> None:
+    plan = on(sample_plan(dim), device)
     seg = bezier_segments(plan)  # (5m, 4, D)
     n = 5 * plan.m
     assert seg.shape == (n, 4, dim)
     dt = float(plan.end_time) / n
-    t = torch.arange(n + 1, dtype=F64) * dt
+    t = torch.arange(n + 1, dtype=F64, device=device) * dt
     x, v, _ = kinematics(plan, t)
     torch.testing.assert_close(seg[:, 0], x[:-1])
     torch.testing.assert_close(seg[:, 3], x[1:])
@@ -85,6 +92,20 @@ def test_bezier_reproduces_samples_and_tangents(dim: int) -> None:
 def test_bezier_custom_sample_count() -> None:
     plan = sample_plan()
     assert bezier_segments(plan, n=17).shape == (17, 4, 2)
+
+
+def test_batch_segments_stop_at_pen_lifts(device: torch.device) -> None:
+    """Segments of a batch are each path's own segments, none joining two paths."""
+    plans = [on(sample_plan(), device), on(sample_plan(3), device)]
+    batch = PlanBatch.from_plans([MotorPlan(p.points[:, :2], p.delta_t, p.delta, p.ac, p.T)
+                                  for p in plans])
+    layout = batch.layout()
+    seg = batch_bezier_segments(batch, layout)
+    assert seg.shape == (layout.n_segments, 4, 2) == (5 * 12, 4, 2)
+    parts = torch.split(seg, [5 * p.m for p in plans])
+    for plan, part in zip(batch.to_plans(), parts, strict=True):
+        torch.testing.assert_close(part, bezier_segments(plan))
+    assert layout.segment_path.tolist() == [0] * 30 + [1] * 30
 
 
 def test_end_time_is_differentiable() -> None:

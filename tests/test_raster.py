@@ -1,20 +1,45 @@
-"""Tests of the built-in 'raster' renderer (plugins/raster.py)."""
+"""Tests of the built-in 'raster' renderer (rendering/raster.py, plugin plugins/raster.py).
+
+Every image test runs on both paths: ``render_segments`` (sized per call) and
+``render_segments_static`` (a budget planned once, static shapes).
+"""
 
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+from collections.abc import Callable
 
 import pytest
 import torch
 
 import inkmotion
-from inkmotion.plugins.raster import RasterRenderer, render_segments
+from inkmotion.benchmarks.raster import scribble_segments
+from inkmotion.plugins.raster import RasterRenderer
+from inkmotion.rendering.raster import (
+    RasterBudget,
+    RasterSession,
+    plan_budget,
+    render_segments,
+    render_segments_static,
+)
 
-DEVICES = [
-    "cpu",
-    pytest.param("cuda", marks=pytest.mark.skipif(not torch.cuda.is_available(),
-                                                   reason="CUDA not available")),
-]
+Render = Callable[..., torch.Tensor]
+
+
+def static_render(segments: torch.Tensor, widths: torch.Tensor | float, height: int,
+                  width: int) -> torch.Tensor:
+    """The static path with a budget planned on this very input, values checked."""
+    budget = plan_budget(segments, widths, height, width)
+    img, overflow = render_segments_static(segments, widths, height, width, budget, check=True)
+    assert not bool(overflow)
+    return img
+
+
+@pytest.fixture(params=["dynamic", "static"])
+def render(request: pytest.FixtureRequest) -> Render:
+    return render_segments if request.param == "dynamic" else static_render
 
 
 def line_segment(p0: tuple[float, float], p1: tuple[float, float],
@@ -44,7 +69,7 @@ def test_plugin_registered() -> None:
     assert torch.equal(img, render_segments(CURVE.float(), 3.0, 64, 96))
 
 
-def test_gradcheck_control_points_and_widths() -> None:
+def test_gradcheck_control_points_and_widths(render: Render) -> None:
     seg = torch.tensor([[[4.31, 6.17], [9.73, 2.29], [14.58, 17.61], [21.13, 11.47]],
                         [[3.57, 19.81], [7.12, 21.33], [11.91, 20.62], [16.44, 22.05]]],
                        dtype=torch.float64, requires_grad=True)
@@ -52,15 +77,15 @@ def test_gradcheck_control_points_and_widths() -> None:
     weights = torch.rand(26, 25, generator=torch.Generator().manual_seed(0), dtype=torch.float64)
 
     def loss(s: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
-        return (render_segments(s, w, 26, 25) * weights).sum()
+        return (render(s, w, 26, 25) * weights).sum()
 
     assert torch.autograd.gradcheck(loss, (seg, widths), eps=1e-6, atol=1e-5, rtol=1e-4)
 
 
-def test_gradients_reach_every_input() -> None:
-    seg = CURVE.clone().requires_grad_(True)
-    w = torch.tensor([2.5], dtype=torch.float64, requires_grad=True)
-    render_segments(seg, w, 64, 96).sum().backward()
+def test_gradients_reach_every_input(render: Render, device: torch.device) -> None:
+    seg = CURVE.to(device).requires_grad_(True)
+    w = torch.tensor([2.5], dtype=torch.float64, device=device, requires_grad=True)
+    render(seg, w, 64, 96).sum().backward()
     assert seg.grad is not None and torch.isfinite(seg.grad).all() and seg.grad.abs().sum() > 0
     assert w.grad is not None and w.grad.item() > 0  # wider stroke, more ink
 
@@ -70,74 +95,73 @@ DIAGONAL_END = (50.0 + 200 / math.sqrt(2), 100.3 + 200 / math.sqrt(2))
 
 @pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
 @pytest.mark.parametrize("end", [(250.0, 100.3), DIAGONAL_END])
-def test_straight_stroke_area(dtype: torch.dtype, end: tuple[float, float]) -> None:
+def test_straight_stroke_area(dtype: torch.dtype, end: tuple[float, float], render: Render,
+                              device: torch.device) -> None:
     """Area of a 200 px stroke of width 3 is 600 px² (+ round caps π·r², about 1.2%)."""
-    img = render_segments(line_segment((50.0, 100.3), end, dtype), 3.0, 300, 300)
+    img = render(line_segment((50.0, 100.3), end, dtype, device), 3.0, 300, 300)
     assert img.dtype == dtype
     assert abs(img.sum().item() - 600.0) / 600.0 < 0.02
 
 
-@pytest.mark.parametrize("device", DEVICES)
-def test_range_shape_and_device(device: str) -> None:
+def test_range_shape_and_device(render: Render, device: torch.device) -> None:
     seg = CURVE.float().to(device)
-    img = render_segments(seg, torch.tensor([4.0], device=device), 64, 96)
-    assert img.shape == (64, 96) and img.device.type == device
+    img = render(seg, torch.tensor([4.0], device=device), 64, 96)
+    assert img.shape == (64, 96) and img.device.type == device.type
     assert img.min() >= 0 and img.max() <= 1 and img.max() == 1
 
 
-@pytest.mark.parametrize("device", DEVICES)
-def test_cuda_matches_cpu(device: str) -> None:
+def test_device_matches_cpu(render: Render, device: torch.device) -> None:
     cpu = render_segments(CURVE, 3.0, 64, 96)
-    dev = render_segments(CURVE.to(device), 3.0, 64, 96).cpu()
+    dev = render(CURVE.to(device), 3.0, 64, 96).cpu()
     assert torch.allclose(cpu, dev, atol=1e-9)
 
 
-def test_no_segments_gives_paper() -> None:
-    img = render_segments(torch.zeros(0, 4, 2), torch.zeros(0), 10, 12)
+def test_no_segments_gives_paper(render: Render, device: torch.device) -> None:
+    img = render(torch.zeros(0, 4, 2, device=device), torch.zeros(0, device=device), 10, 12)
     assert img.shape == (10, 12) and (img == 0).all()
 
 
-def test_off_canvas_segment_gives_paper_and_grad() -> None:
-    seg = line_segment((-50.0, -20.0), (-10.0, -30.0)).requires_grad_(True)
-    img = render_segments(seg, 3.0, 20, 20)
+def test_off_canvas_segment_gives_paper_and_grad(render: Render, device: torch.device) -> None:
+    seg = line_segment((-50.0, -20.0), (-10.0, -30.0), device=device).requires_grad_(True)
+    img = render(seg, 3.0, 20, 20)
     assert (img == 0).all()
     img.sum().backward()
     assert seg.grad is not None and (seg.grad == 0).all()
 
 
-def test_partly_off_canvas() -> None:
-    img = render_segments(line_segment((-50.0, 10.5), (10.0, 10.5)), 3.0, 20, 20)
+def test_partly_off_canvas(render: Render, device: torch.device) -> None:
+    img = render(line_segment((-50.0, 10.5), (10.0, 10.5), device=device), 3.0, 20, 20)
     assert abs(img.sum().item() - 3.0 * 10.0 - 0.5 * math.pi * 2.25) < 0.5
 
 
-def test_zero_length_segment() -> None:
-    seg = torch.tensor([[[10.2, 10.7]] * 4], requires_grad=True)
-    img = render_segments(seg, 3.0, 20, 20)
+def test_zero_length_segment(render: Render, device: torch.device) -> None:
+    seg = torch.tensor([[[10.2, 10.7]] * 4], device=device, requires_grad=True)
+    img = render(seg, 3.0, 20, 20)
     assert abs(img.sum().item() - math.pi * 2.25) < 0.3  # a round dot
     img.sum().backward()
     assert seg.grad is not None and torch.isfinite(seg.grad).all()
 
 
-def test_per_segment_widths() -> None:
-    seg = torch.cat([line_segment((10.0, 20.5), (90.0, 20.5)),
-                     line_segment((10.0, 60.5), (90.0, 60.5))])
-    img = render_segments(seg, torch.tensor([2.0, 8.0]), 80, 100)
+def test_per_segment_widths(render: Render, device: torch.device) -> None:
+    seg = torch.cat([line_segment((10.0, 20.5), (90.0, 20.5), device=device),
+                     line_segment((10.0, 60.5), (90.0, 60.5), device=device)])
+    img = render(seg, torch.tensor([2.0, 8.0], device=device), 80, 100)
     thin, thick = img[:40, 30:70].sum(0), img[40:, 30:70].sum(0)  # ink per column
     assert torch.allclose(thin, torch.full_like(thin, 2.0), atol=1e-4)
     assert torch.allclose(thick, torch.full_like(thick, 8.0), atol=1e-4)
 
 
-def test_radius_column_is_ignored() -> None:
+def test_radius_column_is_ignored(render: Render) -> None:
     seg3 = torch.cat([CURVE, torch.full((1, 4, 1), 7.0, dtype=torch.float64)], 2)
-    assert torch.equal(render_segments(seg3, 3.0, 64, 96), render_segments(CURVE, 3.0, 64, 96))
+    assert torch.equal(render(seg3, 3.0, 64, 96), render(CURVE, 3.0, 64, 96))
 
 
 @pytest.mark.parametrize("bad", ["segments", "widths"])
-def test_nan_raises_value_error(bad: str) -> None:
+def test_nan_raises_value_error(bad: str, render: Render) -> None:
     seg, w = CURVE.clone(), torch.tensor([3.0], dtype=torch.float64)
     (seg if bad == "segments" else w)[0, ...] = math.nan
     with pytest.raises(ValueError, match="NaN"):
-        render_segments(seg, w, 64, 96)
+        render(seg, w, 64, 96)
 
 
 def test_bad_shape_raises_value_error() -> None:
@@ -145,11 +169,11 @@ def test_bad_shape_raises_value_error() -> None:
         render_segments(torch.zeros(3, 2), 3.0, 10, 10)
 
 
-def test_split_curve_renders_the_same() -> None:
-    whole = render_segments(CURVE, 3.0, 64, 96)
+def test_split_curve_renders_the_same(render: Render) -> None:
+    whole = render(CURVE, 3.0, 64, 96)
     left, right = split_cubic(CURVE, 0.37)
     l1, l2 = split_cubic(left, 0.5)
-    split = render_segments(torch.cat([l1, l2, right]), 3.0, 64, 96)
+    split = render(torch.cat([l1, l2, right]), 3.0, 64, 96)
     assert (whole - split).abs().max() < 0.1
     assert (whole - split).abs().sum() < 0.01 * whole.sum()
 
@@ -157,3 +181,75 @@ def test_split_curve_renders_the_same() -> None:
 def test_renderer_object_accepts_tensor_widths() -> None:
     img = RasterRenderer()(CURVE, torch.tensor([3.0], dtype=torch.float64), 64, 96)
     assert img.dtype == torch.float64
+
+
+# --- the static path against the dynamic one ------------------------------------------------
+def test_static_equals_dynamic_on_a_scribble(device: torch.device) -> None:
+    """Image and gradients of the bench scene (750 segments) agree between the two paths."""
+    seg = scribble_segments(n=300, size=120).double().to(device)
+    widths = torch.full((300,), 3.0, dtype=torch.float64, device=device)
+    weights = torch.rand(120, 120, generator=torch.Generator().manual_seed(2),
+                         dtype=torch.float64).to(device)
+    outs = []
+    for fn in (render_segments, static_render):
+        s, w = seg.clone().requires_grad_(True), widths.clone().requires_grad_(True)
+        img = fn(s, w, 120, 120)
+        (img * weights).sum().backward()
+        outs.append((img.detach(), s.grad, w.grad))
+    for got, ref in zip(*outs, strict=True):
+        torch.testing.assert_close(got, ref, atol=1e-9, rtol=1e-9)
+
+
+def test_small_budget_is_flagged_and_still_draws(device: torch.device) -> None:
+    seg = scribble_segments(n=100, size=120).to(device)
+    ref = render_segments(seg, 3.0, 120, 120)
+    full = plan_budget(seg, 3.0, 120, 120)
+    for small in (RasterBudget(full.pieces // 3, full.patch_x, full.patch_y),
+                  RasterBudget(full.pieces, 3, 3)):
+        img, overflow = render_segments_static(seg, 3.0, 120, 120, small)
+        assert bool(overflow)
+        assert 0.5 * float(ref.sum()) < float(img.sum()) <= 1.05 * float(ref.sum())
+    img, overflow = render_segments_static(seg, 3.0, 120, 120, full)
+    assert not bool(overflow) and torch.allclose(img, ref, atol=1e-5)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, 1e30])
+def test_unchecked_bad_values_neither_crash_nor_allocate(bad: float, device: torch.device) -> None:
+    """Without checks, NaN/inf coordinates give a NaN image (the loss shows it), never a
+    crash or an allocation sized from garbage; huge finite ones are drawn as far away."""
+    seg = scribble_segments(n=50, size=64).to(device)
+    budget = plan_budget(seg, 3.0, 64, 64)
+    seg[7, 2, 0] = bad
+    dynamic = render_segments(seg, 3.0, 64, 64, check=False)
+    static, _ = render_segments_static(seg, 3.0, 64, 64, budget)
+    for img in (dynamic, static):
+        assert img.shape == (64, 64)
+        assert bool(torch.isnan(img).all()) or math.isfinite(bad)
+
+
+def test_session_plans_once_and_replans_on_overflow(device: torch.device) -> None:
+    session = RasterSession(static=True)
+    seg = scribble_segments(n=100, size=120).to(device)
+    first = session(seg, 3.0, 120, 120)
+    assert len(session.budgets) == 1 and not session.replan_if_needed()
+    torch.testing.assert_close(first, render_segments(seg, 3.0, 120, 120))
+    session(seg, 9.0, 120, 120)  # thicker: wider patches than planned
+    assert session.replan_if_needed() and not session.budgets
+    torch.testing.assert_close(session(seg, 9.0, 120, 120), render_segments(seg, 9.0, 120, 120))
+    assert not session.replan_if_needed()
+
+
+def test_plugin_session_is_static_off_the_cpu() -> None:
+    renderer = inkmotion.plugin("renderer", "raster")
+    assert not renderer.session("cpu").static
+    assert renderer.session("cuda:0").static
+    assert renderer.session("cpu", static=True).static
+
+
+def test_plugin_module_imports_no_torch() -> None:
+    """The plugin module registers only: torch and the implementation load on first use."""
+    code = ("import sys, inkmotion.plugins.raster as m; m.inkmotion_renderers(); "
+            "print([n for n in sys.modules"
+            " if n == 'torch' or n.startswith('inkmotion.rendering')])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -4,7 +4,9 @@ Scene: 750 cubic segments (Hermite → Bézier) of a smooth random Lissajous-lik
 350×350 canvas, stroke width 3 px, segments about 4 px long. Timed: forward + backward of
 sum(image · fixed random weights) w.r.t. control points and widths, median over repeats.
 The baseline is imported from its file (never copied): ``$INKMOTION_SHARED_DIR/bench`` or the
-repository's sibling ``shared/bench``.
+repository's sibling ``shared/bench``; it runs on the CPU only (it makes CPU tensors).
+The project renderer runs as in a fit (:class:`RasterSession`): sized per call on the CPU,
+static shapes elsewhere.
 """
 
 from __future__ import annotations
@@ -20,7 +22,9 @@ from types import ModuleType
 
 import torch
 
-from inkmotion.plugins.raster import render_segments
+from inkmotion.benchmarks.kinematics import synchronize
+from inkmotion.profiling.host_syncs import count_host_syncs
+from inkmotion.rendering.raster import RasterSession
 
 CANVAS = 350
 SEGMENTS = 750
@@ -69,35 +73,52 @@ def load_naive_baseline() -> ModuleType | None:
 
 def _time_forward_backward(render: Callable[..., torch.Tensor], seg: torch.Tensor,
                            widths: torch.Tensor, repeats: int) -> float:
-    """Median milliseconds of render + backward of sum(image · weights)."""
-    weights = torch.rand(CANVAS, CANVAS, generator=torch.Generator().manual_seed(1))
+    """Median milliseconds of render + backward of sum(image · weights), on seg's device."""
+    device = seg.device
+    weights = torch.rand(CANVAS, CANVAS, generator=torch.Generator().manual_seed(1)).to(device)
 
     def step() -> None:
         s = seg.clone().requires_grad_(True)
         w = widths.clone().requires_grad_(True)
         (render(s, w, CANVAS, CANVAS) * weights).sum().backward()
 
-    for _ in range(3):  # warm-up
+    for _ in range(3):  # warm-up (and the session's planning call)
         step()
     times = []
     for _ in range(repeats):
+        synchronize(device)
         t0 = time.perf_counter()
         step()
+        synchronize(device)
         times.append((time.perf_counter() - t0) * 1e3)
     return statistics.median(times)
 
 
-def bench_raster(repeats: int = 20) -> dict[str, float]:
-    """Forward+backward median ms of the project renderer and of the naive baseline (same run)
-    at 350×350, 750 segments, width 3 px: {"raster_ms", "naive_ms", "speedup"} (nan if absent)."""
-    seg = scribble_segments()
-    widths = torch.full((SEGMENTS,), STROKE_WIDTH)
-    raster_ms = _time_forward_backward(render_segments, seg, widths, repeats)
-    naive = load_naive_baseline()
+def raster_host_syncs(render: Callable[..., torch.Tensor], seg: torch.Tensor,
+                      widths: torch.Tensor) -> int:
+    """Host synchronisations of one render + backward (after a first, planning, call)."""
+    render(seg, widths, CANVAS, CANVAS)
+    s = seg.clone().requires_grad_(True)
+    with count_host_syncs() as log:
+        render(s, widths, CANVAS, CANVAS).sum().backward()
+    return log.count
+
+
+def bench_raster(repeats: int = 20, device: torch.device | str = "cpu") -> dict[str, float]:
+    """Forward+backward median ms of the project renderer (as a fit runs it on ``device``)
+    and of the naive baseline (CPU only, same run) at 350×350, 750 segments, width 3 px:
+    {"raster_ms", "naive_ms", "speedup", "raster_host_syncs"} (nan where absent)."""
+    device = torch.device(device)
+    seg = scribble_segments().to(device)
+    widths = torch.full((SEGMENTS,), STROKE_WIDTH, device=device)
+    session = RasterSession(static=device.type != "cpu")
+    raster_ms = _time_forward_backward(session, seg, widths, repeats)
+    naive = load_naive_baseline() if device.type == "cpu" else None
     naive_ms = math.nan
     if naive is not None:
         naive_ms = _time_forward_backward(naive.render, seg, widths, repeats)
-    return {"raster_ms": raster_ms, "naive_ms": naive_ms, "speedup": naive_ms / raster_ms}
+    return {"raster_ms": raster_ms, "naive_ms": naive_ms, "speedup": naive_ms / raster_ms,
+            "raster_host_syncs": raster_host_syncs(session, seg, widths)}
 
 
 if __name__ == "__main__":

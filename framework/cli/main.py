@@ -1,4 +1,12 @@
-"""The ``inkmotion`` command line (typer)."""
+"""The ``inkmotion`` command line (typer).
+
+One module per command group: :mod:`~inkmotion.cli.run`, :mod:`~inkmotion.cli.submit`,
+:mod:`~inkmotion.cli.jobs`, :mod:`~inkmotion.cli.worker` and :mod:`~inkmotion.cli.view`,
+each with a ``register(app)``; ``plugins`` and ``bench`` live here. Start-up matters (every
+command pays it): modules on this path import typer, rich and the standard library only;
+torch, the job store, Celery and rerun are imported inside the commands that use them.
+Errors are reported by :mod:`inkmotion.cli.errors`.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +18,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from inkmotion.cli import jobs, run, submit, view, worker
+from inkmotion.cli.errors import EXIT_USER, fail, report
 from inkmotion.errors import InkmotionError
 
 app = typer.Typer(
@@ -20,14 +30,7 @@ app = typer.Typer(
     rich_markup_mode="rich",
     pretty_exceptions_enable=False,
 )
-err = Console(stderr=True)
 out = Console()
-
-
-def fail(exc: BaseException, code: int = 1) -> None:
-    """Report a user-caused error in one sentence, no traceback, and exit."""
-    err.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
-    raise typer.Exit(code)
 
 
 @app.command("plugins")
@@ -82,25 +85,14 @@ def bench_cmd(
         fail(exc)
 
 
-def _register_run() -> None:
-    from inkmotion.cli import run, submit
-
-    run.register(app)
-    submit.register(app)
-
-
-_register_run()
+def _register_groups() -> None:
+    """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
+    the order registered here."""
+    for group in (run, submit, jobs, worker, view):
+        group.register(app)
 
 
-def _register_services() -> None:
-    try:
-        from inkmotion.cli.services import register
-    except ImportError:
-        return
-    register(app)
-
-
-_register_services()
+_register_groups()
 
 
 def main() -> None:
@@ -108,5 +100,5 @@ def main() -> None:
     try:
         app()
     except InkmotionError as exc:  # a last guard: user errors never show a traceback
-        err.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
-        sys.exit(1)
+        report(exc)
+        sys.exit(EXIT_USER)

@@ -8,21 +8,21 @@ from __future__ import annotations
 
 import torch
 
-from inkmotion.sigma_lognormal.batch import PlanBatch
+from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 
 
-def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0) -> torch.Tensor:
+def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
+                   layout: GridLayout | None = None) -> torch.Tensor:
     """Mean over paths of T_end_p/m_p + w_σ·Var(Δt_p), Var over Δt_2..Δt_m (Δt_1 is unused).
 
     The variance is the population variance, computed for all paths at once with
-    segment sums (no Python loop over paths).
+    segment sums over ``layout.move_path`` (no Python loop over paths, static shapes).
     """
-    m = batch.moves.to(t_end.dtype)  # (P,)
-    first, _ = batch.first_last()
-    path = batch.move_path()
-    used = (~first).to(t_end.dtype)  # (M,) Δt_i that set an onset
-    count = torch.zeros_like(m).index_add(0, path, used)  # (P,) = m_p − 1
-    denom = count.clamp(min=1.0)
+    layout = layout or batch.layout()
+    m = layout.moves.to(t_end.dtype)  # (P,)
+    path = layout.move_path  # (M,)
+    used = (~layout.first).to(t_end.dtype)  # (M,) Δt_i that set an onset
+    denom = (m - 1.0).clamp(min=1.0)  # (P,) m_p − 1 of them
     mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
     dev = (batch.delta_t - mean[path]) * used
     var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom

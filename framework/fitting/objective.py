@@ -3,6 +3,14 @@
 One evaluation is the hot loop's forward pass: ΣΛ kinematics on the fitting grid
 (n_p = samples_per_move·m_p) → Hermite Bézier segments → render → image losses, plus the
 smoothing cost (DESIGN.md § Fitting defaults) and a term keeping targets on the canvas.
+
+No host synchronisation (DESIGN.md § Devices): the grid's index structure (a
+:class:`~inkmotion.sigma_lognormal.batch.GridLayout`) is built on the first call, with a
+static kinematics window (wide enough for any plan within the optimiser's clamps) and the
+renderer's static budgets where ``static``; a non-finite total is returned as such (the
+optimiser checks it every few steps), and a window or budget that is (nearly) outgrown
+raises a flag on the device, read every ``check_every`` calls (or by
+:meth:`Objective.replan_if_needed`), after which they are planned again.
 """
 
 from __future__ import annotations
@@ -15,8 +23,14 @@ import torch
 from inkmotion.errors import InkmotionError
 from inkmotion.fitting.losses import canvas_cost, smoothing_cost
 from inkmotion.geometry.bezier import hermite_segments
-from inkmotion.sigma_lognormal.batch import PlanBatch
-from inkmotion.sigma_lognormal.kinematics import batch_kinematics, uniform_times
+from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
+from inkmotion.sigma_lognormal.kinematics import evaluate_kinematics, plan_window, uniform_times
+from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
+
+#: the optimiser's clamps Δt ≥ 0.1 and Ac ≤ 0.1 (DESIGN.md § Fitting defaults): a static
+#: kinematics window is planned wide enough for any plan within them
+DELTA_T_MIN = DELTA_T_RANGE[0]  # the optimiser's clamps bound the static window
+AC_MAX = AC_RANGE[1]
 
 Renderer = Callable[[torch.Tensor, torch.Tensor, int, int], torch.Tensor]
 ImageLoss = Callable[[torch.Tensor], torch.Tensor]
@@ -47,39 +61,90 @@ class Evaluation:
 
 
 class Objective:
-    """λ·mean_p(T_end/m + w_σ·VarΔt) + w_I·Σ image losses + w_c·canvas term."""
+    """λ·mean_p(T_end/m + w_σ·VarΔt) + w_I·Σ image losses + w_c·canvas term.
+
+    ``static``: static shapes and no device read in a call (None: on any device but the
+    CPU, where reading the device is free and sizing per call does less work).
+    ``check_every``: read the "no longer fits" flags every that many calls (0: only when
+    :meth:`replan_if_needed` is called, e.g. by the optimiser with its own checks).
+    """
 
     def __init__(self, renderer: Renderer, image_losses: dict[str, ImageLoss],
-                 canvas: tuple[int, int], weights: Weights) -> None:
+                 canvas: tuple[int, int], weights: Weights, *, static: bool | None = None,
+                 check_every: int = 25) -> None:
         self.renderer = renderer
         self.image_losses = image_losses
         self.width, self.height = canvas
         self.p = weights
+        self.static = static
+        self.check_every = check_every
+        self.layout: GridLayout | None = None
+        self._render: Renderer | None = None
+        self._window_overflow: torch.Tensor | None = None  # 0-d bool on the device
+        self._calls = 0
 
     def __call__(self, batch: PlanBatch) -> Evaluation:
-        times, counts, dt = uniform_times(batch, self.p.samples_per_move)
-        t_end = times[torch.cumsum(counts, 0) - 1]  # (P,) the last sample is T_end
-        kin = batch_kinematics(batch, times, counts)
-        segments, seg_path = hermite_segments(kin.positions, kin.velocities, counts, dt)
-        widths = batch.widths[seg_path]
-        try:
-            rendered = self.renderer(segments[..., :2].contiguous(), widths, self.height,
-                                     self.width)
-        except ValueError as exc:  # e.g. NaN coordinates after a diverging step
-            raise InkmotionError(f"The renderer refused the trajectory ({exc}); lower the "
-                                 "learning rates or check the input.") from exc
+        self._calls += 1
+        if self.check_every and self._calls % self.check_every == 0:
+            self.replan_if_needed()
+        layout = self._layout(batch)
+        times, dt = uniform_times(batch, layout)
+        if layout.window is None and self._static(batch):
+            layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
+                                               max_ac=AC_MAX)
+        t_end = times[layout.block_end - 1]  # (P,) the last sample is T_end
+        kin, overflow = evaluate_kinematics(batch, times, layout)
+        if overflow is not None:
+            self._window_overflow = overflow if self._window_overflow is None \
+                else self._window_overflow | overflow
+        segments = hermite_segments(kin.positions, kin.velocities, layout, dt)
+        rendered = self._draw(segments[..., :2].contiguous(), batch.widths[layout.segment_path])
         terms: dict[str, torch.Tensor] = {}
         image = rendered.new_zeros(())
         for name, fn in self.image_losses.items():
             terms[name] = fn(rendered)
             image = image + terms[name]
-        terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma)
+        terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma, layout)
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
         total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
                  + self.p.w_canvas * terms["canvas"])
-        if not torch.isfinite(total):
-            raise InkmotionError(
-                "The optimisation produced a non-finite loss (NaN); lower the learning rates "
-                "or check the input for extreme coordinates."
-            )
-        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities, counts)
+        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities,
+                          layout.counts)
+
+    def replan_if_needed(self) -> bool:
+        """Read (once) the device flags saying the kinematics window or the renderer's budget
+        was (nearly) outgrown since the last check; if so, they are planned again on the next
+        call. True when something is replanned."""
+        session_flag = getattr(self._render, "overflow", None)
+        flags = [f for f in (self._window_overflow, session_flag) if f is not None]
+        if not flags or not bool(torch.stack(flags).any()):
+            return False
+        if self._window_overflow is not None and bool(self._window_overflow):
+            self.layout = self.layout.with_window(None) if self.layout is not None else None
+        self._window_overflow = None
+        replan = getattr(self._render, "replan_if_needed", None)
+        if replan is not None:
+            replan()
+        return True
+
+    def _static(self, batch: PlanBatch) -> bool:
+        return self.static if self.static is not None else batch.points.device.type != "cpu"
+
+    def _layout(self, batch: PlanBatch) -> GridLayout:
+        """The grid's layout, built when the first batch (or one with other ``moves``) comes."""
+        if self.layout is None or self.layout.moves is not batch.moves:
+            self.layout = batch.layout(samples_per_move=self.p.samples_per_move)
+            self._window_overflow = None
+        return self.layout
+
+    def _draw(self, segments: torch.Tensor, widths: torch.Tensor) -> torch.Tensor:
+        """Render (H, W) with the renderer's per-fit session when it offers one."""
+        if self._render is None:
+            session = getattr(self.renderer, "session", None)
+            self._render = self.renderer if session is None else \
+                session(segments.device, static=self.static)
+        try:
+            return self._render(segments, widths, self.height, self.width)
+        except ValueError as exc:  # bad shapes; values are not checked (no device read)
+            raise InkmotionError(f"The renderer refused the trajectory ({exc}); lower the "
+                                 "learning rates or check the input.") from exc

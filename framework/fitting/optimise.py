@@ -22,11 +22,8 @@ from inkmotion.errors import InkmotionError
 from inkmotion.events import StepState, scalars, wants
 from inkmotion.fitting.objective import Evaluation, Objective
 from inkmotion.sigma_lognormal.batch import PlanBatch
+from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_RANGE, DELTA_T_RANGE
 from inkmotion.sigma_lognormal.plan import MotorPlan
-
-DELTA_T_RANGE = (0.1, 0.9)
-DELTA_RANGE = (-math.pi / 2, math.pi / 2)
-AC_RANGE = (1e-4, 0.1)
 
 
 @dataclass(frozen=True)

@@ -1,1 +1,1 @@
-"""image_losses"""
+"""Image losses' implementations (the plugins in ``inkmotion.plugins`` wrap them)."""

@@ -23,7 +23,15 @@ __all__ = ["RECORDING_NAME", "RerunRecorder", "entity_paths", "read_step_count",
 
 
 def __getattr__(name: str) -> Any:
+    """Import the recorder or the readers on first access (PEP 562) and cache the name."""
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'inkmotion.recording' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    """The public names, loaded or not, beside what the module already holds."""
+    return sorted(set(globals()) | set(__all__))

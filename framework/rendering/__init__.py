@@ -1,1 +1,1 @@
-"""rendering"""
+"""Differentiable renderers' implementations (the plugins in ``inkmotion.plugins`` wrap them)."""

@@ -20,7 +20,9 @@ The third (radius) coordinate moves along the straight line: x = w d, v = Λ d, 
 Cost is linear in m: a lognormal is negligible outside τ ∈ [e^{μ−kσ}, e^{μ+kσ}] (k =
 ``SUPPORT_SIGMAS``), so each sub-movement is evaluated only on the samples in that window
 (gather → evaluate → scatter-add). Samples after the window get the whole displacement
-d_i through one scatter and a cumulative sum.
+d_i through one scatter and a cumulative sum. The window's sample count K is either sized
+on every call (one read of the device: free on a CPU) or static, ``GridLayout.window``,
+planned once with headroom, with a device-side flag saying when it no longer fits.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from typing import NamedTuple
 
 import torch
 
-from inkmotion.sigma_lognormal.batch import PlanBatch
+from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 EPS = 1e-5
@@ -86,33 +88,117 @@ def submovement_terms(
     return x, v, a
 
 
-def batch_kinematics(
+def _window_bounds(
+    times: torch.Tensor,  # (N,) sorted within each path's block
+    t0: torch.Tensor,  # (M,)
+    sigma: torch.Tensor,  # (M,)
+    mu: torch.Tensor,  # (M,)
+    layout: GridLayout,
+    with_centre: bool = False,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
+    """Samples in each support τ ∈ [e^{μ−kσ}, e^{μ+kσ}] (k = SUPPORT_SIGMAS): first (M,),
+    one past the last (M,), both within the sub-movement's own block, and (if asked) the
+    sample at the median τ = e^μ (M,). One searchsorted over keys made unique per path by
+    an offset computed on the device (no host read)."""
+    t, t0 = times.detach().double(), t0.detach().double()
+    span = t.abs().max() + t0.abs().max() + 10.0  # 0-d: wider than any block
+    keys = t + layout.sample_path.double() * 4.0 * span  # (N,) increasing
+    offset = layout.move_path.double() * 4.0 * span  # (M,)
+
+    def first_at(log_tau: torch.Tensor, right: bool = False) -> torch.Tensor:
+        at = t0 + torch.exp(log_tau.detach().double())  # (M,) t0 + τ
+        return torch.searchsorted(keys, at + offset, right=right)
+
+    lo = torch.maximum(first_at(mu - SUPPORT_SIGMAS * sigma), layout.move_block_start)
+    hi = torch.minimum(first_at(mu + SUPPORT_SIGMAS * sigma, right=True), layout.move_block_end)
+    return torch.minimum(lo, hi), hi, first_at(mu) if with_centre else None
+
+
+def _fit_window(lo: torch.Tensor, hi: torch.Tensor, centre: torch.Tensor,
+                window: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Windows (M,) of at most ``window`` samples: [lo, hi) itself where it fits, else the
+    ``window`` samples of it around the median (the tails, the least mass, are dropped)."""
+    start = torch.maximum(torch.minimum(centre - window // 2, hi - window), lo)
+    return start, torch.minimum(hi, start + window)
+
+
+#: a static window is planned at WINDOW_HEADROOM × the widest support seen (+ 2 samples)
+WINDOW_HEADROOM = 2.0
+
+
+def window_alarm(window: int) -> int:
+    """Support width (samples) past which a static window of ``window`` samples raises its
+    flag: ¾ of it, so a fit whose supports grow is replanned before any is truncated."""
+    return window - window // 4
+
+
+def plan_window(batch: PlanBatch, times: torch.Tensor, layout: GridLayout,
+                headroom: float = WINDOW_HEADROOM, min_delta_t: float | None = None,
+                max_ac: float = 0.1) -> GridLayout:
+    """``layout`` with a static window: the largest number of samples a sub-movement's
+    support covers now, × ``headroom`` + 2, at most the longest block. Reads the device
+    (once, when a fit starts or its window no longer fits).
+
+    With ``min_delta_t`` (the optimiser's clamps Δt ≥ min_delta_t, Ac ≤ max_ac) and
+    ``times`` the uniform grid, the window is at least wide enough for any plan within the
+    clamps, so a fit never outgrows it: the ±kσ support lasts W = T·sinh(kσ)/sinh(3σ),
+    largest at σ_max = √(−ln(1 − Ac_max)), and T_end ≥ Δt_min·Σ_{i≥2} T_i bounds the grid
+    step dt = T_end/n_p from below, so a support covers at most ⌈W_max/dt_min⌉ + 1 samples.
+    """
+    with torch.no_grad():
+        sigma, mu, t0 = batch.timing(layout)
+        lo, hi, _ = _window_bounds(times, t0, sigma, mu, layout)
+        figures = [(hi - lo).max(), layout.counts.max()]
+        if min_delta_t is not None:
+            figures.append(_clamped_window(batch, layout, min_delta_t, max_ac))
+        need, longest, *bound = (int(x) for x in torch.stack(figures).double().tolist())
+    window = max([math.ceil(headroom * need) + 2, *bound])
+    return layout.with_window(max(1, min(window, longest)))
+
+
+def _clamped_window(batch: PlanBatch, layout: GridLayout, min_delta_t: float,
+                    max_ac: float) -> torch.Tensor:
+    """0-d: the most samples of its path's uniform grid a support can cover while
+    Δt ≥ ``min_delta_t`` and Ac ≤ ``max_ac`` (see :func:`plan_window`), at most a block."""
+    s_max = math.sqrt(-math.log1p(-max_ac))
+    ratio = math.sinh(SUPPORT_SIGMAS * s_max) / math.sinh(3.0 * s_max)  # W / T at σ_max
+    T = batch.T.detach().double()
+    zeros = torch.zeros(layout.n_paths, dtype=T.dtype, device=T.device)
+    rest = zeros.index_add(0, layout.move_path, T * (~layout.first))  # (P,) Σ_{i≥2} T_i
+    t_max = zeros.scatter_reduce(0, layout.move_path, T, "amax")  # (P,)
+    dt_min = min_delta_t * rest / (layout.counts - 1)  # (P,)
+    samples = torch.ceil(ratio * t_max / dt_min) + 2  # inf when m_p = 1: capped below
+    return torch.minimum(samples, layout.counts.double()).max()
+
+
+def evaluate_kinematics(
     batch: PlanBatch,
     times: torch.Tensor,  # (N,) sorted within each path's block
-    counts: torch.Tensor,  # (P,) long: samples of each path, blocks in path order
-) -> Kinematics:
-    """Kinematics of every path of ``batch`` at its own block of sample times."""
+    layout: GridLayout,
+) -> tuple[Kinematics, torch.Tensor | None]:
+    """Kinematics of every path of ``batch`` at its own block of sample times, and whether
+    a static window is (nearly) outgrown (0-d bool on the device; None for a dynamic one).
+
+    Sub-movement i is evaluated on the K samples of its support only (gather → evaluate →
+    scatter-add): K = ``layout.window`` when static (no host read; a support wider than
+    :func:`window_alarm` sets the flag, one wider than K also loses its tails), else the
+    largest support of this call (one read).
+    """
     device = times.device
     n_total = times.shape[0]
-    sigma, mu, t0 = batch.timing()
-    d = batch.displacements()  # (M, D)
-    move_path = batch.move_path()  # (M,)
-    block_end = torch.cumsum(counts, 0)  # (P,)
-    block_start = block_end - counts
-    sample_path = torch.repeat_interleave(torch.arange(batch.n_paths, device=device), counts)
+    sigma, mu, t0 = batch.timing(layout)
+    d = batch.displacements(layout)  # (M, D)
 
     with torch.no_grad():  # window bounds: index bookkeeping, no gradient
-        span = float(times.detach().abs().max()) + float(t0.detach().abs().max()) + 10.0
-        keys = times.detach().double() + sample_path.double() * 4.0 * span
-        offset = move_path.double() * 4.0 * span
-        lo_t = (t0.detach().double() + torch.exp((mu - SUPPORT_SIGMAS * sigma).detach().double()))
-        hi_t = (t0.detach().double() + torch.exp((mu + SUPPORT_SIGMAS * sigma).detach().double()))
-        lo = torch.searchsorted(keys, lo_t + offset)  # (M,) first sample in the window
-        hi = torch.searchsorted(keys, hi_t + offset, right=True)  # (M,) first sample after it
-        lo = torch.maximum(lo, block_start[move_path])
-        hi = torch.minimum(hi, block_end[move_path])
-        lo = torch.minimum(lo, hi)
-        k = int((hi - lo).max()) if lo.numel() else 0
+        lo, hi, centre = _window_bounds(times, t0, sigma, mu, layout,
+                                        with_centre=layout.window is not None)
+        overflow = None
+        if layout.window is None:
+            k = int((hi - lo).max()) if lo.numel() else 0
+        else:
+            k = layout.window
+            overflow = (hi - lo > window_alarm(k)).any()
+            lo, hi = _fit_window(lo, hi, centre, k)
         idx = lo[:, None] + torch.arange(max(k, 1), device=device)  # (M, K)
         valid = idx < hi[:, None]
         idx = torch.where(valid, idx, torch.zeros_like(idx))
@@ -129,26 +215,28 @@ def batch_kinematics(
 
     # completed sub-movements: +d_i from the first sample after the window to the block end
     done = torch.zeros(n_total + 1, dim, dtype=x.dtype, device=device)
-    done = done.index_add(0, hi, d).index_add(0, block_end[move_path], -d)
-    pos = pos + torch.cumsum(done, 0)[:n_total] + batch.start_points()[sample_path]
-    return Kinematics(pos, vel, acc)
+    done = done.index_add(0, hi, d).index_add(0, layout.move_block_end, -d)
+    pos = pos + torch.cumsum(done, 0)[:n_total] + batch.start_points(layout)[layout.sample_path]
+    return Kinematics(pos, vel, acc), overflow
 
 
-def uniform_times(batch: PlanBatch, samples_per_move: int = 5) -> tuple[torch.Tensor,
-                                                                          torch.Tensor,
-                                                                          torch.Tensor]:
-    """The fitting grid: n_p = 5·m_p segments per path, t_k = k·T_end/n_p, k = 0..n_p.
+def batch_kinematics(
+    batch: PlanBatch,
+    times: torch.Tensor,  # (N,) sorted within each path's block
+    layout: GridLayout,
+) -> Kinematics:
+    """Kinematics of every path of ``batch`` at its own block of sample times (N, D) each;
+    see :func:`evaluate_kinematics`."""
+    return evaluate_kinematics(batch, times, layout)[0]
 
-    Returns (times (N,), counts (P,), dt (P,)); times carry the gradient of T_end.
-    """
-    t_end = batch.end_times()  # (P,)
-    n = batch.moves * samples_per_move  # (P,)
-    dt = t_end / n.to(t_end.dtype)
-    counts = n + 1
-    path = torch.repeat_interleave(torch.arange(batch.n_paths, device=n.device), counts)
-    start = torch.cumsum(counts, 0) - counts
-    k = torch.arange(int(counts.sum()), device=n.device) - start[path]
-    return k.to(dt.dtype) * dt[path], counts, dt
+
+def uniform_times(batch: PlanBatch, layout: GridLayout) -> tuple[torch.Tensor, torch.Tensor]:
+    """The uniform grid of each path: t_k = k·T_end/n_p, k = 0..n_p (n_p = counts − 1; on
+    the fitting grid n_p = 5·m_p). Returns (times (N,), dt (P,)), carrying the gradient of
+    T_end."""
+    t_end = batch.end_times(layout)  # (P,)
+    dt = t_end / (layout.counts - 1).to(t_end.dtype)
+    return layout.sample_step.to(dt.dtype) * dt[layout.sample_path], dt
 
 
 def kinematics(plan: MotorPlan, t: torch.Tensor) -> Kinematics:
@@ -160,6 +248,7 @@ def kinematics(plan: MotorPlan, t: torch.Tensor) -> Kinematics:
     order = torch.argsort(t.detach())
     inverse = torch.empty_like(order)
     inverse[order] = torch.arange(order.numel(), device=order.device)
-    counts = torch.tensor([t.numel()], dtype=torch.long, device=t.device)
-    out = batch_kinematics(PlanBatch.from_plans([plan]), t[order], counts)
+    batch = PlanBatch.from_plans([plan])
+    counts = torch.full((1,), t.numel(), dtype=torch.long, device=t.device)
+    out = batch_kinematics(batch, t[order], batch.layout(counts, n_samples=t.numel()))
     return Kinematics(*(o[inverse] for o in out))

@@ -9,7 +9,19 @@ t0_1 = −e^{μ_1 − 3σ_1} (the first window starts at t = 0), t0_i = t0_{i−
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING
+
 import torch
+
+#: the optimiser's clamps (DESIGN.md § Fitting defaults); the renderer and kinematics plan
+#: their static sizes from the same bounds
+DELTA_T_RANGE = (0.1, 0.9)
+DELTA_RANGE = (-math.pi / 2, math.pi / 2)
+AC_RANGE = (1e-4, 0.1)
+
+if TYPE_CHECKING:
+    from inkmotion.sigma_lognormal.batch import GridLayout
 
 
 def sigma_mu(ac: torch.Tensor, T: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -24,24 +36,22 @@ def onsets(
     T: torch.Tensor,  # (M,)
     sigma: torch.Tensor,  # (M,)
     mu: torch.Tensor,  # (M,)
-    first: torch.Tensor,  # (M,) bool: first sub-movement of its path
+    layout: GridLayout,
 ) -> torch.Tensor:
     """Onset times t0 (M,) of every sub-movement of several packed paths.
 
     Within a path: t0_1 = −e^{μ_1−3σ_1}, t0_i = t0_{i−1} + Δt_i·T_i (Δt_1 unused). Done as
-    one global cumulative sum with a reset at each path's first entry, no Python loop.
+    one global cumulative sum, minus what was accumulated before each path's first entry
+    (gathered at ``layout.move_first``): no Python loop, no data-dependent shape.
     """
     start = -torch.exp(mu - 3.0 * sigma)
-    steps = torch.where(first, start, delta_t * T)  # (M,)
+    steps = torch.where(layout.first, start, delta_t * T)  # (M,)
     total = torch.cumsum(steps, dim=0)
-    # subtract everything accumulated before each path's first entry
-    before = (total - steps) * first  # (M,) nonzero only at path starts
-    path_id = torch.cumsum(first.long(), dim=0) - 1
-    first_idx = torch.nonzero(first).squeeze(1)
-    return total - before[first_idx][path_id]
+    return total - (total - steps)[layout.move_first]
 
 
 def end_times(t0: torch.Tensor, sigma: torch.Tensor, mu: torch.Tensor,
-              last: torch.Tensor) -> torch.Tensor:
+              layout: GridLayout) -> torch.Tensor:
     """T_end per path (P,): t0_m + e^{μ_m + 3σ_m} of each path's last sub-movement."""
-    return (t0 + torch.exp(mu + 3.0 * sigma))[last]
+    last = layout.last_move  # (P,)
+    return t0[last] + torch.exp(mu[last] + 3.0 * sigma[last])

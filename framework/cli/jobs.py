@@ -1,0 +1,224 @@
+"""``inkmotion jobs list|show|wait|cancel|logs``: inspect and control queued jobs.
+
+They read the job store (INKMOTION_DB_URL); only ``cancel`` talks to the broker. The store
+(SQLAlchemy), Celery and rich's progress bar are imported inside the commands, so
+``inkmotion jobs --help`` costs typer and rich alone, and no command here imports torch.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from typing import TYPE_CHECKING, Annotated, Any, Optional
+
+import typer
+from rich.console import Console
+
+from inkmotion.cli.errors import EXIT_TIMEOUT, EXIT_USER, fail, report
+from inkmotion.errors import InkmotionError
+
+if TYPE_CHECKING:
+    from inkmotion.store import JobRecord
+
+err = Console(stderr=True)
+out = Console()
+
+STATUS_STYLE = {"queued": "yellow", "running": "cyan", "succeeded": "green", "failed": "red",
+                "cancelled": "magenta"}
+#: the fields ``jobs show`` prints, in this order (empty ones are left out)
+SHOWN_FIELDS = ("id", "status", "kind", "queue", "label", "step", "total", "t_end", "losses",
+                "metrics", "attempts", "worker_host", "created_at", "started_at",
+                "finished_at", "error", "artifact_dir")
+
+jobs_app = typer.Typer(
+    help="Inspect and control queued jobs: list, show, wait, cancel, logs.",
+    no_args_is_help=True,
+)
+JobIdArg = Annotated[str, typer.Argument(help="Job id (or a unique prefix).")]
+JobIdsArg = Annotated[list[str], typer.Argument(help="Job id(s) (or unique prefixes).")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Machine-readable output.")]
+
+
+def resolve_job(job_id: str) -> JobRecord:
+    """The job record for a full id or a unique prefix, or exit with one sentence."""
+    from inkmotion.store import find_job
+
+    found = find_job(job_id)
+    if found is None:
+        fail(f"No job {job_id!r} in the job store; `inkmotion jobs list` shows the jobs.")
+    if isinstance(found, list):
+        fail(f"{job_id!r} matches {len(found)} jobs; give more characters of the id.")
+    return found
+
+
+def _age(record: JobRecord) -> str:
+    """How long ago the job was created, in the coarsest unit that is still telling."""
+    from datetime import datetime, timezone
+
+    created = record.created_at
+    s = (datetime.now(timezone.utc) - created).total_seconds()
+    if s < 90:
+        return f"{s:.0f} s ago"
+    if s < 5400:
+        return f"{s / 60:.0f} min ago"
+    return f"{s / 3600:.1f} h ago" if s < 172800 else created.strftime("%Y-%m-%d")
+
+
+def _figures(values: dict[str, Any]) -> str:
+    """``name=value, ...`` with 4 significant digits for numbers (losses, metrics)."""
+    return ", ".join(f"{k}={v:.4g}" if isinstance(v, (int, float)) and not isinstance(v, bool)
+                     else f"{k}={v}" for k, v in values.items())
+
+
+@jobs_app.command("list")
+def jobs_list(
+    status: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045 - typer needs Optional
+        "--status", help="Only jobs with this status (repeatable).")] = None,
+    limit: Annotated[int, typer.Option(help="At most this many, newest first.")] = 50,
+    as_json: JsonOpt = False,
+) -> None:
+    """List jobs, newest first."""
+    from rich.table import Table
+
+    from inkmotion.store import list_jobs
+
+    try:
+        records = list_jobs(status or None, limit=limit)
+    except InkmotionError as exc:
+        fail(exc)
+    if as_json:
+        print(json.dumps([r.to_dict() for r in records], indent=1))
+        return
+    table = Table("id", "status", "kind", "input", "progress", "attempts", "worker", "created")
+    for column in table.columns[:2]:
+        column.no_wrap = True
+    for r in records:
+        style = STATUS_STYLE.get(r.status, "")
+        progress = f"{r.step}/{r.total}" if r.total else ""
+        table.add_row(r.id[:12], f"[{style}]{r.status}[/]", r.kind, r.label, progress,
+                      str(r.attempts), r.worker_host or "", _age(r))
+    out.print(table)
+
+
+@jobs_app.command("show")
+def jobs_show(job_id: JobIdArg, as_json: JsonOpt = False) -> None:
+    """Show one job: status, progress, losses, metrics, attempts, errors, artifacts."""
+    from rich.table import Table
+
+    d = resolve_job(job_id).to_dict()
+    if as_json:
+        print(json.dumps(d, indent=1))
+        return
+    table = Table(show_header=False, box=None)
+    for key in SHOWN_FIELDS:
+        value = d.get(key)  # `metrics` is absent from records of older stores
+        if value is None or value == "" or value == {}:
+            continue
+        if key in ("losses", "metrics"):
+            value = _figures(value)
+        table.add_row(f"[bold]{key}[/]", str(value))
+    out.print(table)
+
+
+def _finished_line(r: JobRecord) -> str:
+    style = STATUS_STYLE.get(r.status, "")
+    line = f"{r.id}: [{style}]{r.status}[/]"
+    if r.status == "succeeded":
+        line += f" -> {r.artifact_dir}"
+    elif r.error:
+        line += f": {r.error}"
+    return line
+
+
+def _progress_info(r: JobRecord) -> str:
+    info = r.status
+    if r.losses:
+        info += f"  loss {r.losses.get('total', 0.0):.4g}"
+    if r.t_end is not None:
+        info += f"  T_end {r.t_end:.3g}"
+    return info
+
+
+@jobs_app.command("wait")
+def jobs_wait(
+    job_ids: JobIdsArg,
+    timeout: Annotated[Optional[float], typer.Option(  # noqa: UP045
+        help="Give up after this many seconds (exit code 3).")] = None,
+    interval: Annotated[float, typer.Option(help="Polling interval, s.")] = 0.5,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress display.")] = False,
+) -> None:
+    """Wait for jobs to finish; exit 0 only when all succeeded (1 otherwise, 3 on timeout)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from inkmotion.store import get_job
+
+    ids = [resolve_job(j).id for j in job_ids]
+    deadline = None if timeout is None else time.monotonic() + timeout
+    done: dict[str, JobRecord] = {}
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TextColumn("{task.fields[info]}"))
+    with Progress(*columns, console=err, disable=quiet, transient=False) as bar:
+        tasks = {i: bar.add_task(i[:12], total=None, info="") for i in ids}
+        while len(done) < len(ids):
+            for i in ids:
+                if i in done:
+                    continue
+                r = get_job(i)
+                if r is None:
+                    fail(f"Job {i} disappeared from the job store.")
+                bar.update(tasks[i], total=r.total or None, completed=r.step,
+                           info=_progress_info(r))
+                if r.finished:
+                    done[i] = r
+            if len(done) == len(ids):
+                break
+            if deadline is not None and time.monotonic() > deadline:
+                bar.stop()
+                pending = [i for i in ids if i not in done]
+                fail(f"Timed out after {timeout:g} s; still unfinished: "
+                     f"{', '.join(p[:12] for p in pending)}.", code=EXIT_TIMEOUT)
+            time.sleep(interval)
+    for i in ids:
+        err.print(_finished_line(done[i]), highlight=False)
+    if any(r.status != "succeeded" for r in done.values()):
+        raise typer.Exit(EXIT_USER)
+
+
+@jobs_app.command("cancel")
+def jobs_cancel(job_ids: JobIdsArg) -> None:
+    """Cancel queued or running jobs (revoke with terminate, and mark cancelled)."""
+    from inkmotion.workers.submit import cancel_job
+
+    code = 0
+    for j in job_ids:
+        r = resolve_job(j)
+        cancelled, warning = cancel_job(r.id)
+        if cancelled:
+            err.print(f"{r.id}: cancelled", highlight=False)
+        else:
+            err.print(f"{r.id}: already {r.status}; nothing to cancel", highlight=False)
+            code = EXIT_USER
+        if warning:
+            err.print(f"[yellow]warning:[/] {warning}", highlight=False)
+    raise typer.Exit(code)
+
+
+@jobs_app.command("logs")
+def jobs_logs(job_id: JobIdArg) -> None:
+    """Print a job's log (attempts, hosts, errors with tracebacks)."""
+    from inkmotion.settings import load_settings
+
+    r = resolve_job(job_id)
+    log = load_settings().job_dir(r.id) / "job.log"
+    if log.is_file():
+        sys.stdout.write(log.read_text(encoding="utf-8", errors="replace"))
+    else:
+        err.print(f"{r.id}: no log yet (status {r.status}).", highlight=False)
+    if r.error:
+        report(r.error)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``jobs`` group to the ``inkmotion`` app."""
+    app.add_typer(jobs_app, name="jobs")

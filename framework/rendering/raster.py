@@ -1,0 +1,383 @@
+"""A differentiable anti-aliased stroke rasterizer in plain PyTorch (the 'raster' renderer).
+
+Each cubic Bézier segment is cut into short straight pieces (chords between uniformly
+spaced parameters; the count per segment follows its length and its flatness, computed
+from detached values). Every piece is a capsule of radius r = w/2, and a pixel whose
+centre lies at distance d from the piece gets the anti-aliased coverage
+
+    c = clamp(r + 1/2 − d, 0, 1)        (ink = 1, paper = 0)
+
+The stroke is the union of its capsules: the image is the per-pixel maximum of c over the
+pieces (``scatter_reduce(..., "amax")``), which for a polyline equals the coverage of the
+distance to the whole polyline (round joins and round caps). Only a small pixel patch
+around each piece is evaluated, so the cost follows the covered pixels, not
+pixels × segments. Gradients flow to the control points and to the widths; the device and
+dtype follow the inputs.
+
+Two paths compute the same image:
+
+- :func:`render_segments` sizes everything from the data (the number of pieces, the patch
+  around a piece): a few reads of the device per call, free on a CPU.
+- :func:`render_segments_static` uses a :class:`RasterBudget` planned once
+  (:func:`plan_budget`) with headroom, so its shapes are static and it never reads the
+  device (DESIGN.md § Devices). When the data outgrow the budget it still draws, coarser
+  (fewer pieces) or clipped (smaller patches), and raises a flag on the device;
+  :class:`RasterSession` keeps the budget and replans when asked after the flag was set.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+
+#: target length (px) of the straight pieces a cubic is cut into
+PIECE_LENGTH = 3.0
+#: largest distance (px) allowed between a cubic and its chords
+FLATNESS = 0.05
+#: added under the square root of the distance so its gradient stays finite at d = 0
+_EPS = 1e-12
+#: budget headroom: pieces planned = HEADROOM × pieces seen (+ one per segment)
+HEADROOM = 1.5
+#: extra pixels of a planned patch side over the widest piece seen
+PATCH_MARGIN = 2
+#: a budget's flag is raised past this fraction of its pieces, or when a piece's pixel
+#: range reaches its patch side, before anything is coarsened or clipped
+ALARM = 0.85
+
+
+@dataclass(frozen=True)
+class RasterBudget:
+    """Static sizes of :func:`render_segments_static`: pieces in all, and the pixel patch
+    (columns, rows) evaluated around each piece."""
+
+    pieces: int
+    patch_x: int
+    patch_y: int
+
+
+# --- validation and sizes (detached) ---------------------------------------------------------
+def check_inputs(
+    segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
+    check: bool = True,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Control points (S, 4, 2) and widths (S,) in the segments' dtype, after checking the
+    shapes (Python-level, free). With ``check`` also the values (NaN, inf, negative widths),
+    which reads the device: a fitting loop passes ``check=False`` and checks its loss."""
+    if not isinstance(segments, torch.Tensor) or segments.dim() != 3 or segments.shape[1] != 4 \
+            or segments.shape[2] not in (2, 3):
+        shape = tuple(segments.shape) if isinstance(segments, torch.Tensor) else type(segments)
+        raise ValueError(f"Renderer segments must have shape (S, 4, 2) or (S, 4, 3), got {shape}.")
+    if not segments.is_floating_point():
+        raise ValueError(f"Renderer segments must be floating point, got {segments.dtype}.")
+    if int(height) <= 0 or int(width) <= 0:
+        raise ValueError(f"Canvas size must be positive, got {height}×{width}.")
+    ctrl = segments[..., :2]  # (S, 4, 2); a 3rd (radius) column is ignored
+    n_seg = ctrl.shape[0]
+    if isinstance(widths, torch.Tensor):
+        w = widths.to(dtype=ctrl.dtype, device=ctrl.device)
+    else:
+        w = torch.full((), float(widths), dtype=ctrl.dtype, device=ctrl.device)
+    if w.dim() == 0:
+        w = w.expand(n_seg)
+    if w.shape != (n_seg,):
+        raise ValueError(f"Widths must be a number or have shape ({n_seg},), got {tuple(w.shape)}.")
+    if check:
+        if not bool(torch.isfinite(ctrl).all()):
+            raise ValueError("Renderer segments contain NaN or infinite coordinates.")
+        if not bool(torch.isfinite(w).all()):
+            raise ValueError("Stroke widths contain NaN or infinite values.")
+        if bool((w < 0).any()):
+            raise ValueError("Stroke widths must be non-negative.")
+    return ctrl, w
+
+
+def _finite(x: torch.Tensor) -> torch.Tensor:
+    """Detached copy with NaN → 0 and ±inf → the largest finite values: safe to size from."""
+    return torch.nan_to_num(x.detach(), nan=0.0)
+
+
+def piece_cap(height: int, width: int) -> int:
+    """Most pieces of one segment: enough for a curve four times around the canvas; bounds
+    the memory a wild trajectory can ask for."""
+    return math.ceil(4 * (height + width) / PIECE_LENGTH) + 4
+
+
+def piece_counts(ctrl: torch.Tensor, radii: torch.Tensor, height: int, width: int) -> torch.Tensor:
+    """Number of straight pieces per segment (S,), detached, 0 for segments off the canvas.
+
+    n = max(⌈|control polygon| / PIECE_LENGTH⌉, ⌈√(0.75·M / FLATNESS)⌉, 1), with
+    M = max(|P0 − 2P1 + P2|, |P1 − 2P2 + P3|): the chord error of n uniform pieces is at most
+    max|B''| / (8n²) ≤ 6M / (8n²). A segment whose control hull, grown by r + 1, misses the
+    canvas gets 0 (the curve lies inside its control hull). Non-finite input gives finite
+    counts (at most the cap), never a huge allocation.
+    """
+    with torch.no_grad():
+        ctrl, radii = _finite(ctrl), _finite(radii)
+        legs = ctrl[:, 1:] - ctrl[:, :-1]  # (S, 3, 2)
+        poly = legs.norm(dim=-1).sum(-1)  # (S,)
+        bend = (legs[:, 1:] - legs[:, :-1]).norm(dim=-1).amax(-1)  # (S,)
+        n = torch.maximum(torch.ceil(poly / PIECE_LENGTH),
+                          torch.ceil(torch.sqrt(0.75 * bend / FLATNESS))).clamp(min=1)
+        n = n.clamp(max=piece_cap(height, width)).long()
+        grow = (radii + 1)[:, None]  # (S, 1)
+        lo, hi = ctrl.amin(1) - grow, ctrl.amax(1) + grow  # (S, 2)
+        inside = (hi[:, 0] > 0) & (hi[:, 1] > 0) & (lo[:, 0] < width) & (lo[:, 1] < height)
+        return n * inside
+
+
+def _cubic_points(ctrl: torch.Tensor, seg: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
+    """B(u) = (1−u)³P0 + 3u(1−u)²P1 + 3u²(1−u)P2 + u³P3 of segments ``seg`` (K,) at u (K,):
+    (K, 2), differentiable in ctrl."""
+    u = u[:, None]  # (K, 1)
+    v = 1 - u
+    basis = torch.cat((v * v * v, 3 * u * v * v, 3 * u * u * v, u * u * u), 1)  # (K, 4)
+    return torch.einsum("pk,pkd->pd", basis, ctrl[seg])
+
+
+def flatten(ctrl: torch.Tensor, counts: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor,
+                                                                  torch.Tensor]:
+    """Chop each cubic into ``counts[s]`` chords between the parameters u = k / counts[s].
+
+    Returns the pieces' start points (N, 2), end points (N, 2) and segment index (N,),
+    N = Σ counts (read from the device); differentiable in ctrl.
+    """
+    n_seg, dev = ctrl.shape[0], ctrl.device
+    seg_ids = torch.arange(n_seg, device=dev)
+    npts = counts + (counts > 0)  # (S,) points per segment: n + 1, or 0 when culled
+    point_seg = torch.repeat_interleave(seg_ids, npts)  # (P,)
+    first = torch.cumsum(npts, 0) - npts  # (S,) index of each segment's first point
+    k = torch.arange(point_seg.shape[0], device=dev) - first[point_seg]  # (P,)
+    u = k.to(ctrl.dtype) / counts[point_seg].to(ctrl.dtype)  # (P,)
+    pts = _cubic_points(ctrl, point_seg, u)  # (P, 2)
+    piece_seg = torch.repeat_interleave(seg_ids, counts)  # (N,)
+    # piece j of segment s starts at point first[s] + (j − Σ_{s'<s} counts[s']) = j + (#segments
+    # before s that have points); with culled segments that is j + rank of s among kept ones
+    kept_rank = torch.cumsum(counts > 0, 0) - 1  # (S,)
+    start = torch.arange(piece_seg.shape[0], device=dev) + kept_rank[piece_seg]  # (N,)
+    return pts[start], pts[start + 1], piece_seg
+
+
+def flatten_static(ctrl: torch.Tensor, counts: torch.Tensor, pieces: int
+                   ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    """:func:`flatten` into exactly ``pieces`` pieces (static shape, no device read).
+
+    Piece p belongs to segment s with ends[s−1] ≤ p < ends[s] (ends = cumsum(counts)) and
+    runs from u = j/n to (j+1)/n, j = p − ends[s−1]; pieces past Σ counts are padding.
+    Returns start points (B, 2), end points (B, 2), segment (B,), valid (B,) bool.
+    """
+    dtype, dev = ctrl.dtype, ctrl.device
+    ends = torch.cumsum(counts, 0)  # (S,)
+    p = torch.arange(pieces, device=dev)  # (B,)
+    seg = torch.searchsorted(ends, p, right=True).clamp(max=max(ctrl.shape[0] - 1, 0))  # (B,)
+    valid = p < ends[-1]
+    n = counts[seg]  # (B,)
+    j = torch.where(valid, p - (ends - counts)[seg], 0)  # (B,)
+    n_f = n.clamp(min=1).to(dtype)
+    a = _cubic_points(ctrl, seg, j.to(dtype) / n_f)
+    b = _cubic_points(ctrl, seg, (j + 1).to(dtype) / n_f)
+    return a, b, seg, valid
+
+
+def fit_counts(counts: torch.Tensor, pieces: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Counts (S,) that fit ``pieces`` in all, and whether the originals (nearly) did not:
+    a 0-d bool set past ``ALARM`` × pieces, so a replan usually comes before any coarsening.
+
+    When Σ counts > pieces every kept segment gets max(1, ⌊n·(pieces − S)/Σn⌋) pieces, which
+    sums to at most ``pieces``: a coarser curve, never a missing one.
+    """
+    total = counts.sum()
+    scale = (pieces - counts.shape[0]) / total.clamp(min=1).to(torch.float64)
+    coarse = torch.floor(counts.to(torch.float64) * scale).long().clamp(min=1) * (counts > 0)
+    return torch.where(total > pieces, coarse, counts), total > ALARM * pieces
+
+
+def pixel_ranges(a: torch.Tensor, b: torch.Tensor, r: torch.Tensor, height: int,
+                 width: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """First and last pixel (column, row) whose centre lies within r + ½ of each piece: c0
+    in [0, size], c1 in [−1, size − 1], (N, 2) long each; c1 < c0 for a piece off the
+    canvas. Detached, from finite copies: NaN input cannot give a wild index."""
+    with torch.no_grad():
+        a, b = _finite(a), _finite(b)
+        reach = (_finite(r) + 0.5)[:, None]  # (N, 1)
+        lo = torch.minimum(a, b) - reach  # (N, 2)
+        hi = torch.maximum(a, b) + reach
+        size = torch.arange(2, device=a.device) * (height - width) + width  # (W, H), no upload
+        c0 = torch.minimum((torch.floor(lo - 0.5) + 1).clamp(min=0), size)  # first centre > lo
+        c1 = torch.minimum((torch.ceil(hi - 0.5) - 1).clamp(min=-1), size - 1)  # last < hi
+        return c0.long(), c1.long()
+
+
+def capsule_coverage(
+    a: torch.Tensor,  # (N, 2) piece starts
+    b: torch.Tensor,  # (N, 2) piece ends
+    r: torch.Tensor,  # (N,) radii
+    c0: torch.Tensor,  # (N, 2) first pixel (column, row)
+    c1: torch.Tensor,  # (N, 2) last pixel
+    patch: tuple[int, int],  # (kx, ky) pixels evaluated from c0
+    height: int,
+    width: int,
+    valid: torch.Tensor | None = None,  # (N,) bool: pieces to draw
+) -> torch.Tensor:
+    """Image (H, W): per pixel the max over pieces of clamp(r + ½ − d, 0, 1), d the distance
+    of the pixel centre to the capsule's axis, t = clamp(ap·ab / |ab|², 0, 1), d = |ap − t·ab|.
+    Only the patch of kx × ky pixels from c0 (clipped at c1) of each piece is evaluated."""
+    kx, ky = patch
+    dtype, dev = a.dtype, a.device
+    with torch.no_grad():
+        xs = c0[:, :1] + torch.arange(kx, device=dev)  # (N, kx) pixel columns
+        ys = c0[:, 1:] + torch.arange(ky, device=dev)  # (N, ky) pixel rows
+        inside = (ys <= c1[:, 1:])[:, :, None] & (xs <= c1[:, :1])[:, None, :]  # (N, ky, kx)
+        if valid is not None:
+            inside = inside & valid[:, None, None]
+        row = ys.minimum(c1[:, 1:]).clamp(min=0)[:, :, None]
+        flat = row * width + xs.minimum(c1[:, :1]).clamp(min=0)[:, None, :]  # (N, ky, kx)
+
+    ab = b - a  # (N, 2)
+    inv_len2 = 1 / (ab * ab).sum(1).clamp(min=1e-12)  # (N,)
+    dx = (xs.to(dtype) + 0.5 - a[:, :1])[:, None, :]  # (N, 1, kx)
+    dy = (ys.to(dtype) + 0.5 - a[:, 1:])[:, :, None]  # (N, ky, 1)
+    abx, aby = ab[:, 0, None, None], ab[:, 1, None, None]  # (N, 1, 1)
+    t = ((dx * abx + dy * aby) * inv_len2[:, None, None]).clamp(0, 1)  # (N, ky, kx)
+    ex, ey = dx - t * abx, dy - t * aby
+    d = torch.sqrt(ex * ex + ey * ey + _EPS)  # (N, ky, kx)
+    cov = (r[:, None, None] + 0.5 - d).clamp(0, 1) * inside  # (N, ky, kx)
+    img = torch.zeros(height * width, dtype=dtype, device=dev)
+    img = img.scatter_reduce(0, flat.reshape(-1), cov.reshape(-1), reduce="amax",
+                             include_self=True)
+    return img.reshape(height, width)
+
+
+def _paper(ctrl: torch.Tensor, w: torch.Tensor, height: int, width: int) -> torch.Tensor:
+    """A blank image (H, W) that keeps the graph to the inputs (zero gradient)."""
+    return ctrl.new_zeros(height, width) + 0 * (ctrl.sum() + w.sum())
+
+
+def _poison(img: torch.Tensor, ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
+    """``img`` unchanged, or all NaN when a coordinate or width is not finite (no device
+    read): unchecked NaN input must reach the loss, where the fitting loop looks for it."""
+    return img + 0 * (ctrl.sum() + w.sum())
+
+
+# --- the two paths ---------------------------------------------------------------------------
+def render_segments(
+    segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
+    check: bool = True,
+) -> torch.Tensor:
+    """Render cubic Bézier segments (S, 4, 2) in pixel coordinates (x right, y down; pixel
+    (r, c) centred at (c + ½, r + ½)) with stroke widths (S,) or a number to a coverage image
+    (H, W) in [0, 1]: I(p) = max over pieces of clamp(w/2 + ½ − dist(p, piece), 0, 1).
+
+    Differentiable w.r.t. segments and widths. Raises ValueError on bad shapes, and with
+    ``check`` on NaN/inf input (without, such input gives a NaN image). A 3rd (radius)
+    coordinate, if present, is ignored. Sizes follow the data (reads the device).
+    """
+    height, width = int(height), int(width)
+    ctrl, w = check_inputs(segments, widths, height, width, check)
+    radii = w / 2  # (S,)
+    counts = piece_counts(ctrl, radii, height, width)  # (S,)
+    if ctrl.shape[0] == 0 or int(counts.sum()) == 0:
+        return _paper(ctrl, w, height, width)
+    a, b, piece_seg = flatten(ctrl, counts)  # (N, 2), (N, 2), (N,)
+    r = radii[piece_seg]  # (N,)
+    c0, c1 = pixel_ranges(a, b, r, height, width)  # (N, 2) each
+    keep = (c1 >= c0).all(1)  # (N,) pieces that touch the canvas
+    if not bool(keep.all()):
+        a, b, r, c0, c1 = a[keep], b[keep], r[keep], c0[keep], c1[keep]
+    if a.shape[0] == 0:
+        return _paper(ctrl, w, height, width)
+    kx, ky = (c1 - c0 + 1).amax(0).tolist()  # patch size: the widest piece range
+    img = capsule_coverage(a, b, r, c0, c1, (kx, ky), height, width)
+    return img if check else _poison(img, ctrl, w)
+
+
+def render_segments_static(
+    segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
+    budget: RasterBudget, check: bool = False,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`render_segments` with the static sizes of ``budget``: no device read, the
+    same image while the data fit the budget. Returns the image (H, W) and a 0-d bool on
+    the device, True when they (nearly) outgrew it: past ``ALARM`` of the pieces or a piece
+    as wide as the patch; past the budget itself the curve is drawn with fewer pieces or
+    clipped patches. NaN input gives a NaN image unless ``check`` (which reads the device).
+    """
+    height, width = int(height), int(width)
+    ctrl, w = check_inputs(segments, widths, height, width, check)
+    if ctrl.shape[0] == 0:
+        return _paper(ctrl, w, height, width), torch.zeros((), dtype=torch.bool,
+                                                           device=ctrl.device)
+    radii = w / 2  # (S,)
+    counts, too_many = fit_counts(piece_counts(ctrl, radii, height, width), budget.pieces)
+    a, b, piece_seg, valid = flatten_static(ctrl, counts, budget.pieces)  # (B, ...)
+    r = radii[piece_seg]  # (B,)
+    c0, c1 = pixel_ranges(a, b, r, height, width)  # (B, 2) each
+    with torch.no_grad():  # pieces on the canvas as wide as the patch
+        extent = c1 - c0 + 1  # (B, 2), ≤ 0 off the canvas
+        too_wide = (((extent[:, 0] >= budget.patch_x) | (extent[:, 1] >= budget.patch_y))
+                    & (extent > 0).all(1) & valid).any()
+    img = capsule_coverage(a, b, r, c0, c1, (budget.patch_x, budget.patch_y), height, width,
+                           valid)
+    return _poison(img, ctrl, w), too_many | too_wide
+
+
+def plan_budget(segments: torch.Tensor, widths: torch.Tensor | float, height: int,
+                width: int, headroom: float = HEADROOM) -> RasterBudget:
+    """A :class:`RasterBudget` for segments like these (reads the device, once): the pieces
+    they need × ``headroom`` plus one per segment, and the widest piece's pixel range plus
+    ``PATCH_MARGIN``, within the bounds of :func:`render_segments` (at most
+    :func:`piece_cap` pieces per segment, a patch at most the canvas)."""
+    height, width = int(height), int(width)
+    with torch.no_grad():
+        ctrl, w = check_inputs(segments, widths, height, width, check=False)
+        n_seg = ctrl.shape[0]
+        radii = w / 2
+        counts = piece_counts(ctrl, radii, height, width)
+        total = int(counts.sum())
+        pieces = min(math.ceil(headroom * total) + n_seg, piece_cap(height, width) * n_seg)
+        kx = ky = 1
+        if total > 0:
+            a, b, piece_seg = flatten(ctrl, counts)
+            c0, c1 = pixel_ranges(a, b, radii[piece_seg], height, width)
+            extent = torch.where((c1 >= c0).all(1, keepdim=True), c1 - c0 + 1, 1)
+            kx, ky = extent.amax(0).tolist()
+        bound = lambda k, side: max(1, min(k + PATCH_MARGIN, side + 1))  # noqa: E731
+        return RasterBudget(max(pieces, 1), bound(kx, width), bound(ky, height))
+
+
+class RasterSession:
+    """The renderer of one fit: static budgets (by segment count, canvas, device, dtype),
+    planned on first use, and a device-side flag OR-ed over calls saying a budget was too
+    small. :meth:`replan_if_needed` reads the flag (one device read) and drops the budgets
+    so the next call plans them again. ``static=False`` renders with :func:`render_segments`
+    (sized per call), the better choice on a CPU where a device read costs nothing.
+    """
+
+    def __init__(self, static: bool = True, check: bool = False) -> None:
+        self.static = static
+        self.check = check
+        self.budgets: dict[tuple, RasterBudget] = {}
+        self.overflow: torch.Tensor | None = None  # 0-d bool on the device
+
+    def __call__(self, segments: torch.Tensor, widths: torch.Tensor | float, height: int,
+                 width: int) -> torch.Tensor:
+        """Coverage image (H, W) of cubic segments (S, 4, 2) with widths (S,) or a number."""
+        if not self.static:
+            return render_segments(segments, widths, height, width, check=self.check)
+        key = (segments.shape[0], int(height), int(width), segments.device, segments.dtype)
+        budget = self.budgets.get(key)
+        if budget is None:
+            budget = self.budgets[key] = plan_budget(segments, widths, height, width)
+        img, over = render_segments_static(segments, widths, height, width, budget,
+                                           self.check)
+        self.overflow = over if self.overflow is None else self.overflow | over
+        return img
+
+    def replan_if_needed(self) -> bool:
+        """True (and the budgets dropped) when a call since the last check outgrew its
+        budget. Reads one flag from the device."""
+        if self.overflow is None or not bool(self.overflow):
+            return False
+        self.budgets.clear()
+        self.overflow = None
+        return True

@@ -1,0 +1,156 @@
+"""Start-up of the command line: the everyday commands must not import the heavy stack.
+
+``import torch`` alone takes about 2 s on a small machine, so ``inkmotion --help``, ``jobs``
+and ``view`` must answer without torch (nor NumPy, rerun, Celery or matplotlib). Each
+command runs in a fresh interpreter that reports which of those modules it loaded; no
+timing is asserted, so the tests are deterministic. ``run``/``submit KIND --help`` load the
+job-kind plugins and are left out on purpose.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+#: modules that make start-up slow; none may load on the commands below
+HEAVY = ("torch", "numpy", "scipy", "cv2", "rerun", "celery", "kombu", "matplotlib")
+
+#: ``python -c PROBE HEAVY,... ARGV...`` runs ``main()`` with ARGV, then prints its exit code,
+#: output and the heavy modules it loaded as one JSON line on the real stdout
+PROBE = """
+import contextlib, io, json, sys
+heavy, argv = sys.argv[1].split(","), sys.argv[2:]
+sys.argv = ["inkmotion", *argv]
+code = 0
+with contextlib.redirect_stdout(io.StringIO()) as out, \\
+        contextlib.redirect_stderr(io.StringIO()) as err:
+    try:
+        from inkmotion.cli.main import main
+        main()
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+loaded = sorted(m for m in heavy if m in sys.modules)
+print(json.dumps({"code": code, "loaded": loaded, "stdout": out.getvalue(),
+                  "stderr": err.getvalue()}))
+"""
+
+
+def probe(env: dict[str, str], *argv: str) -> dict:
+    """Run ``inkmotion ARGV`` in a fresh interpreter; its exit code, output and heavy
+    modules."""
+    res = subprocess.run([sys.executable, "-c", PROBE, ",".join(HEAVY), *argv],
+                         capture_output=True, text=True, timeout=120, env=env)
+    assert res.returncode == 0, res.stderr
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def job_store(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, str], str]:
+    """A SQLite job store with a queued and a succeeded job (whose artifacts hold a
+    recording); the environment that points the command line at it, and the succeeded id."""
+    from inkmotion import store
+    from inkmotion.recording import RECORDING_NAME
+
+    data = tmp_path_factory.mktemp("startup-data")
+    url = f"sqlite:///{data / 'jobs.sqlite3'}"
+    store.create_job({"kind": "fit"}, kind="fit", queue="optimise", label="text:queued",
+                     total=10, db_url=url)
+    done = store.create_job({"kind": "fit"}, kind="fit", queue="optimise", label="text:done",
+                            total=10, db_url=url)
+    artifacts = data / "jobs" / done.id / "artifacts"
+    artifacts.mkdir(parents=True)
+    (artifacts / RECORDING_NAME).write_bytes(b"")
+    store.mark_running(done.id, "w1@host", db_url=url)
+    store.update_progress(done.id, 10, 10, {"total": 0.5}, 1.0, db_url=url)
+    store.mark_succeeded(done.id, str(artifacts), db_url=url)
+    store.dispose_engines()
+    env = {**os.environ, "INKMOTION_DATA_DIR": str(data), "INKMOTION_DB_URL": url,
+           "DISPLAY": "", "WAYLAND_DISPLAY": "", "PYTHONWARNINGS": "ignore"}
+    return env, done.id
+
+
+@pytest.mark.parametrize("argv", [
+    ["--help"],
+    ["jobs", "--help"],
+    ["jobs", "list", "--help"],
+    ["view", "--help"],
+    ["worker", "--help"],
+])
+def test_help_loads_no_heavy_module(job_store: tuple[dict[str, str], str],
+                                    argv: list[str]) -> None:
+    env, _ = job_store
+    result = probe(env, *argv)
+    assert result["code"] == 0, result["stderr"]
+    assert "Usage" in result["stdout"]
+    assert result["loaded"] == []
+
+
+@pytest.mark.parametrize("argv", [
+    ["jobs", "list"],
+    ["jobs", "list", "--json"],
+    ["jobs", "show", "{id}"],
+    ["jobs", "show", "{id}", "--json"],
+    ["jobs", "wait", "{id}", "--quiet"],
+    ["jobs", "logs", "{id}"],
+    ["view", "{id}"],
+    ["view", "{id}", "--print"],
+])
+def test_store_commands_load_no_heavy_module(job_store: tuple[dict[str, str], str],
+                                             argv: list[str]) -> None:
+    env, job_id = job_store
+    result = probe(env, *(a.format(id=job_id) for a in argv))
+    assert result["code"] == 0, result["stderr"]
+    assert result["loaded"] == []
+
+
+def test_view_finds_the_recording_without_rerun(job_store: tuple[dict[str, str], str]) -> None:
+    env, job_id = job_store
+    result = probe(env, "view", job_id[:8], "--print")
+    assert result["code"] == 0, result["stderr"]
+    assert f"{job_id}/artifacts/recording.rrd" in result["stdout"].replace("\n", "")
+    assert result["loaded"] == []
+
+
+def test_user_errors_load_no_heavy_module(job_store: tuple[dict[str, str], str]) -> None:
+    env, _ = job_store
+    result = probe(env, "jobs", "show", "no-such-job")
+    assert result["code"] == 1
+    assert result["stderr"].startswith("error: No job 'no-such-job'")
+    assert result["loaded"] == []
+
+
+def _python(code: str) -> list[str]:
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    return res.stdout.split()
+
+
+def test_import_inkmotion_is_lazy_but_complete() -> None:
+    """``import inkmotion`` loads no torch; the public names still resolve on access, with
+    ``from inkmotion import ...`` too, and ``dir()`` lists them."""
+    out = _python(
+        "import sys, inkmotion\n"
+        "print('torch' in sys.modules, inkmotion.__version__)\n"
+        "print(all(n in dir(inkmotion) for n in inkmotion.__all__))\n"
+        "from inkmotion import MotorPlan, kinematics\n"
+        "print(MotorPlan.__name__, inkmotion.kinematics is kinematics,\n"
+        "      callable(inkmotion.plugin), callable(inkmotion.bezier_segments),\n"
+        "      inkmotion.Drawing.__name__)\n"
+        "print(hasattr(inkmotion, 'no_such_name'))\n")
+    assert out[0] == "False" and out[1].count(".") == 2
+    assert out[2] == "True"
+    assert out[3:8] == ["MotorPlan", "True", "True", "True", "Drawing"]
+    assert out[8] == "False"
+
+
+def test_recording_name_needs_no_recorder() -> None:
+    out = _python("import sys\nfrom inkmotion.recording import RECORDING_NAME, read_steps\n"
+                  "print(RECORDING_NAME, callable(read_steps),\n"
+                  "      [m for m in ('torch', 'rerun') if m in sys.modules])")
+    assert out == ["recording.rrd", "True", "[]"]
+
