@@ -141,39 +141,49 @@ def _parse_text(text: str, source: str) -> list[_Tag]:
 
 
 class _Node:
-    """A document node seen the same way in XML and JSON, so that :func:`_tag` walks both.
+    """A GML node of either form, so that one walk (:func:`_tag`) reads both. It wraps an XML
+    element (names match case-insensitively and without namespace, as writers differ) or a
+    JSON value (keys match as :func:`_key` does; a non-object has no children or values)."""
 
-    Names are passed as the spec spells them (``screenBounds``); each form matches its way.
-    """
+    def __init__(self, raw: Any) -> None:
+        self.raw = raw
 
     def children(self, name: str) -> list[_Node]:
-        """Every child called ``name``, in document order."""
-        raise NotImplementedError
+        """Every child called ``name``: matching elements, or the JSON list (or value) there."""
+        if isinstance(self.raw, ET.Element):
+            return [_Node(c) for c in self.raw if _lower(c.tag) == name.lower()]
+        return [_Node(v) for v in _as_list(_key(self.raw, name))]
 
     def child(self, name: str) -> _Node | None:
-        """The first child called ``name``, or None."""
-        found = self.children(name)
-        return found[0] if found else None
-
-    def scalar(self, name: str) -> Any:
-        """The raw value of child ``name`` (element text, JSON value), or None."""
-        raise NotImplementedError
+        """The first child called ``name``, or None; an empty JSON value counts as missing, so
+        an empty header environment falls back to the tag's own."""
+        if isinstance(self.raw, ET.Element):
+            found = self.children(name)
+            return found[0] if found else None
+        value = _key(self.raw, name)
+        return _Node(value) if value else None
 
     def number(self, name: str, source: str) -> float | None:
-        """The number in child ``name`` (often a string); None when absent or blank."""
-        value = self.scalar(name)
+        """The number in child ``name`` (text, JSON number or string); None if absent/blank."""
+        if isinstance(self.raw, ET.Element):
+            found = self.child(name)
+            value = found.raw.text if found else None
+        else:
+            value = _key(self.raw, name)
         if value is None or (isinstance(value, str) and not value.strip()):
             return None
         return _number(value, name, source)
 
     def attr(self, name: str) -> Any:
-        """Attribute ``name`` (``isDrawing``), or None; by default the child's value."""
-        return self.scalar(name)
+        """Attribute ``name``: XML lower case or as given (``isDrawing``); JSON the key's value."""
+        if isinstance(self.raw, ET.Element):
+            return self.raw.get(name.lower(), self.raw.get(name))
+        return _key(self.raw, name)
 
 
 def _tag(node: _Node, source: str) -> _Tag:
-    """One GML tag: screen bounds and up vector from its environment (under ``header`` or,
-    for some writers, directly in the tag), then the pen-down strokes of all its drawings."""
+    """One tag: bounds and up vector from its environment (in the header or, for some writers,
+    the tag itself), then the pen-down strokes of every drawing."""
     tag = _Tag()
     header = node.child("header")
     env = (header.child("environment") if header else None) or node.child("environment")
@@ -191,8 +201,8 @@ def _tag(node: _Node, source: str) -> _Tag:
 
 
 def _stroke(tag: _Tag, node: _Node, source: str) -> _Stroke:
-    """One stroke's points with their ``<t>`` (or older ``<time>``) times; points without
-    both x and y are skipped. The point limit counts the tag's earlier strokes too."""
+    """One stroke's points and ``<t>`` (or older ``<time>``) times, skipping points without
+    both x and y; the point limit counts the tag's earlier strokes too."""
     points: list[tuple[float, float]] = []
     times: list[float | None] = []
     for pt in node.children("pt"):
@@ -210,7 +220,6 @@ def _stroke(tag: _Tag, node: _Node, source: str) -> _Stroke:
 
 
 def _parse_xml(text: str, source: str) -> list[_Tag]:
-    """Parse GML XML and walk every ``<tag>`` of its ``<gml>`` root."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
@@ -219,7 +228,7 @@ def _parse_xml(text: str, source: str) -> list[_Tag]:
         ) from exc
     if _lower(root.tag) != "gml":
         raise InputError(f"{source}: the root element is <{root.tag}>, not <gml>; give a GML file.")
-    tags = [_tag(el, source) for el in _XmlNode(root).children("tag")]
+    tags = [_tag(node, source) for node in _Node(root).children("tag")]
     if not tags:
         raise InputError(f"{source}: the GML has no <tag> element, so there is nothing to draw.")
     return tags
@@ -230,36 +239,10 @@ def _lower(tag: str) -> str:
     return tag.rsplit("}", 1)[-1].lower()
 
 
-class _XmlNode(_Node):
-    """An XML element. Names match case-insensitively and without namespace, because writers
-    differ (``screenBounds`` and ``screenbounds`` both occur)."""
-
-    def __init__(self, el: ET.Element) -> None:
-        self.el = el
-
-    def _elements(self, name: str) -> list[ET.Element]:
-        """The child elements called ``name``."""
-        return [c for c in self.el if _lower(c.tag) == name.lower()]
-
-    def children(self, name: str) -> list[_Node]:
-        """Every child element called ``name``, in document order."""
-        return [_XmlNode(c) for c in self._elements(name)]
-
-    def scalar(self, name: str) -> str | None:
-        """The text of the first child element called ``name``, or None."""
-        found = self._elements(name)
-        return found[0].text if found else None
-
-    def attr(self, name: str) -> str | None:
-        """Attribute ``name`` in lower case, else as spelled (``isdrawing``, ``isDrawing``)."""
-        return self.el.get(name.lower(), self.el.get(name))
-
-
 # --- JSON --------------------------------------------------------------------------------
 
 
 def _parse_json(text: str, source: str) -> list[_Tag]:
-    """Parse 000000book JSON or JSONP and walk every tag of its ``gml`` object."""
     body = text
     if not text.startswith(("{", "[")):
         match = _JSONP.match(text)
@@ -282,21 +265,21 @@ def _parse_json(text: str, source: str) -> list[_Tag]:
         return _parse_xml(gml.lstrip(), source)
     if not isinstance(gml, dict):
         raise InputError(f'{source}: the JSON has no "gml" object; give a 000000book GML JSON.')
-    tags = [_tag(_json_tag(t, source), source) for t in _as_list(_key(gml, "tag"))]
+    tags = [_tag(_json_tag(node, source), source) for node in _Node(gml).children("tag")]
     if not tags:
         raise InputError(f"{source}: the GML has no tag, so there is nothing to draw.")
     return tags
 
 
-def _json_tag(value: Any, source: str) -> _Node:
-    """A JSON tag as a node; a tag must be an object."""
-    if not isinstance(value, dict):
+def _json_tag(node: _Node, source: str) -> _Node:
+    """``node`` itself: a JSON tag must be an object to be walked."""
+    if not isinstance(node.raw, dict):
         raise InputError(f"{source}: a GML tag is not an object; give a 000000book GML JSON.")
-    return _JsonNode(value)
+    return node
 
 
 def _key(obj: Any, name: str) -> Any:
-    """``obj[name]`` matched case-insensitively (also ``@name``, ``_name``), or None."""
+    """``obj[name]`` matched case-insensitively (also ``@name``), or None."""
     if not isinstance(obj, dict):
         return None
     for k, v in obj.items():
@@ -306,32 +289,9 @@ def _key(obj: Any, name: str) -> Any:
 
 
 def _as_list(value: Any) -> list:
-    """A JSON value that may be a list or a single item, as a list (None: empty)."""
     if value is None:
         return []
     return value if isinstance(value, list) else [value]
-
-
-class _JsonNode(_Node):
-    """A JSON value; keys match as :func:`_key` does and a child may be a list or one item.
-    A non-object has no children or values, so it adds nothing (such a stroke stays empty)."""
-
-    def __init__(self, obj: Any) -> None:
-        self.obj = obj
-
-    def children(self, name: str) -> list[_Node]:
-        """The items of the list under key ``name``, or its single value."""
-        return [_JsonNode(v) for v in _as_list(_key(self.obj, name))]
-
-    def child(self, name: str) -> _Node | None:
-        """The value under key ``name``; None when missing or empty (falsy), so an empty
-        header environment falls back to the tag's own one."""
-        value = _key(self.obj, name)
-        return _JsonNode(value) if value else None
-
-    def scalar(self, name: str) -> Any:
-        """The value under key ``name``, or None."""
-        return _key(self.obj, name)
 
 
 # --- shared ------------------------------------------------------------------------------
