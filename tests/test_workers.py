@@ -85,8 +85,11 @@ def test_file_input_is_copied_into_the_job(workers, service_env, tmp_path):
     src.unlink()  # the worker reads the job's own copy
     wait_succeeded(job_id)
     r = store.get_job(job_id)
-    copy = Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "input" / "tag.gml"
-    assert r.spec["input"] == str(copy) and copy.read_bytes() == (DATA / "tag.gml").read_bytes()
+    copy = (Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "input" / "drawing"
+            / "tag.gml")
+    assert r.spec["version"] == 2 and r.spec["inputs"] == {"drawing": str(copy)}
+    assert copy.read_bytes() == (DATA / "tag.gml").read_bytes()
+    assert r.metrics and r.metrics["moves"] > 0 and r.metrics["chamfer_mean_px"] >= 0
 
 
 def test_batch_of_words_is_one_job_per_word(workers, tmp_path):
@@ -95,7 +98,7 @@ def test_batch_of_words_is_one_job_per_word(workers, tmp_path):
     ids = submit("--batch-words", str(words), *TINY)
     assert len(ids) == 2
     wait_succeeded(*ids)
-    assert [store.get_job(i).spec["input"] for i in ids] == ["text:ab", "text:cd"]
+    assert [store.get_job(i).spec["inputs"]["drawing"] for i in ids] == ["text:ab", "text:cd"]
 
 
 @pytest.mark.parametrize("args, message", [

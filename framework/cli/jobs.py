@@ -66,9 +66,10 @@ def _age(record: JobRecord) -> str:
 
 
 def _figures(values: dict[str, Any]) -> str:
-    """``name=value, ...`` with 4 significant digits for numbers (losses, metrics)."""
-    return ", ".join(f"{k}={v:.4g}" if isinstance(v, (int, float)) and not isinstance(v, bool)
-                     else f"{k}={v}" for k, v in values.items())
+    """``name=value, ...`` with 4 significant digits for floats (losses, metrics); counts and
+    text print as they are."""
+    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                     for k, v in values.items())
 
 
 @jobs_app.command("list")

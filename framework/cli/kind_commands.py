@@ -224,5 +224,5 @@ class KindGroup(typer.core.TyperGroup):
         kinds = host().plugins("job-kind")
         if name not in kinds:
             fail(f"Unknown job kind {name!r}; kinds are: {', '.join(sorted(kinds)) or 'none'} "
-                 "(`inkmotion plugins` lists them).", code=2)
+                 "(`inkmotion plugins` lists them).")
         return self.make(kinds[name])

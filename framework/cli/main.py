@@ -3,8 +3,9 @@
 One module per command group: :mod:`~inkmotion.cli.run`, :mod:`~inkmotion.cli.submit`,
 :mod:`~inkmotion.cli.jobs`, :mod:`~inkmotion.cli.worker` and :mod:`~inkmotion.cli.view`,
 each with a ``register(app)``; ``plugins`` and ``bench`` live here. Start-up matters (every
-command pays it): modules on this path import typer, rich and the standard library only;
-torch, the job store, Celery and rerun are imported inside the commands that use them.
+command pays it): modules on this path import typer, rich, the standard library and light
+project modules (errors, job specs) only; torch, NumPy, the job store, Celery and rerun are
+imported inside the commands that use them (``tests/test_cli_startup.py`` checks this).
 Errors are reported by :mod:`inkmotion.cli.errors`.
 """
 
