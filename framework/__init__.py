@@ -14,8 +14,9 @@ job store — does not import torch.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from inkmotion.lazy import lazy_names
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ loads them
     from inkmotion.geometry.bezier import bezier_segments
@@ -36,17 +37,4 @@ _PUBLIC = {
 
 __all__ = ["Drawing", "MotorPlan", "__version__", "bezier_segments", "kinematics", "plugin"]
 
-
-def __getattr__(name: str) -> Any:
-    """Import a public name's module on first access (PEP 562) and cache the name here."""
-    module = _PUBLIC.get(name)
-    if module is None:
-        raise AttributeError(f"module 'inkmotion' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    """The public names, loaded or not, beside what the module already holds."""
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals(), __all__)

@@ -99,3 +99,16 @@ def test_unknown_hook_fails_early(tmp_path, monkeypatch) -> None:
     assert [b.name for b in h.broken] == ["typo"]
     assert "inkmotion_renderes" in h.broken[0].error
     sys.modules.pop("tp_typo", None)
+
+
+def test_loading_every_plugin_imports_no_torch() -> None:
+    """Registering the built-ins (and any installed third-party plugin) imports no torch:
+    the command line lists kinds and options at once; implementations load on first use."""
+    import subprocess
+
+    code = ("import sys; from inkmotion.plugin_host import host; h = host(); "
+            "assert h.plugins('renderer') and h.plugins('job-kind'); "
+            "print(sorted(n for n in sys.modules if n == 'torch' or n.startswith("
+            "('inkmotion.rendering', 'inkmotion.image_losses', 'inkmotion.sigma_lognormal'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -7,8 +7,6 @@ Every image test runs on both paths: ``render_segments`` (sized per call) and
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 from collections.abc import Callable
 
 import pytest
@@ -244,12 +242,3 @@ def test_plugin_session_is_static_off_the_cpu() -> None:
     assert not renderer.session("cpu").static
     assert renderer.session("cuda:0").static
     assert renderer.session("cpu", static=True).static
-
-
-def test_plugin_module_imports_no_torch() -> None:
-    """The plugin module registers only: torch and the implementation load on first use."""
-    code = ("import sys, inkmotion.plugins.raster as m; m.inkmotion_renderers(); "
-            "print([n for n in sys.modules"
-            " if n == 'torch' or n.startswith('inkmotion.rendering')])")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]", out.stdout

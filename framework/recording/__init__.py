@@ -6,8 +6,7 @@ The recorder and readers load on first use (PEP 562): ``inkmotion view`` needs o
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from inkmotion.lazy import lazy_names
 
 #: file name of a job's recording among its artifacts
 RECORDING_NAME = "recording.rrd"
@@ -21,17 +20,4 @@ _LAZY = {
 
 __all__ = ["RECORDING_NAME", "RerunRecorder", "entity_paths", "read_step_count", "read_steps"]
 
-
-def __getattr__(name: str) -> Any:
-    """Import the recorder or the readers on first access (PEP 562) and cache the name."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'inkmotion.recording' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    """The public names, loaded or not, beside what the module already holds."""
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, globals(), __all__)
