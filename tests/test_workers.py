@@ -193,3 +193,14 @@ def test_third_party_job_kind_goes_to_its_own_queue(workers, service_env):
     assert r.metrics == {"moves": 12, "t_end": pytest.approx(r.metrics["t_end"])}
     report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
     assert report["kind"] == "spiral" and report["title"] == "hello"
+
+
+def test_submit_of_a_version_1_job_json_reproduces_its_plan(workers, service_env):
+    v1 = Path(__file__).parent / "data" / "v1_job"
+    res = inkmotion_cli("submit", "fit", "--config", str(v1 / "job.json"), "--json")
+    assert res.returncode == 0, res.stderr
+    (job,) = json.loads(res.stdout)
+    wait_succeeded(job["id"])
+    r = store.get_job(job["id"])
+    plan = json.loads((Path(r.artifact_dir) / "plan.json").read_text())
+    assert plan == json.loads((v1 / "plan.json").read_text())
