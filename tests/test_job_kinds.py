@@ -266,3 +266,13 @@ def test_nan_stops_the_fit_with_one_sentence(tmp_path: Path) -> None:
     with pytest.raises(InkmotionError, match="non-finite loss"):
         run_job(spec, tmp_path / "out")
     assert not list(tmp_path.iterdir())
+
+
+def test_bench_on_a_missing_gpu_is_one_sentence() -> None:
+    import torch
+
+    if torch.cuda.is_available():
+        pytest.skip("this machine has a GPU")
+    res = inkmotion("bench", "--device", "cuda", "--only", "kinematics")
+    assert res.returncode == 1 and "no CUDA GPU is available" in res.stderr
+    assert "Traceback" not in res.stderr
