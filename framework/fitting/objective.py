@@ -29,7 +29,7 @@ from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
 
 #: the optimiser's clamps Δt ≥ 0.1 and Ac ≤ 0.1 (DESIGN.md § Fitting defaults): a static
 #: kinematics window is planned wide enough for any plan within them
-DELTA_T_MIN = DELTA_T_RANGE[0]  # the optimiser's clamps bound the static window
+DELTA_T_MIN = DELTA_T_RANGE[0]
 AC_MAX = AC_RANGE[1]
 
 Renderer = Callable[[torch.Tensor, torch.Tensor, int, int], torch.Tensor]

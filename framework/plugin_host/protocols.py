@@ -83,7 +83,12 @@ class Renderer(Plugin, Protocol):
     def __call__(
         self, segments: torch.Tensor, widths: torch.Tensor, height: int, width: int
     ) -> torch.Tensor:
-        """Render cubic segments (S, 4, 2) with widths (S,) to coverage (H, W) in [0, 1]."""
+        """Render cubic segments (S, 4, 2) with widths (S,) to coverage (H, W) in [0, 1].
+
+        Optional: ``session(device, static=None)`` returning a callable with the same
+        signature that plans its sizes once per fit (static shapes, no device reads on a
+        GPU) and offers ``overflow`` (a 0-d bool tensor) and ``replan_if_needed()``; the
+        objective uses it when present (see the built-in 'raster')."""
 
 
 class Saliency(Plugin, Protocol):
