@@ -57,7 +57,6 @@ class Evaluation:
     rendered: torch.Tensor  # (H, W)
     positions: torch.Tensor  # (N, D)
     velocities: torch.Tensor  # (N, D)
-    counts: torch.Tensor  # (P,)
 
 
 class Objective:
@@ -108,8 +107,7 @@ class Objective:
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
         total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
                  + self.p.w_canvas * terms["canvas"])
-        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities,
-                          layout.counts)
+        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities)
 
     def replan_if_needed(self) -> bool:
         """Read (once) the device flags saying the kinematics window or the renderer's budget
