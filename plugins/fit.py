@@ -174,8 +174,7 @@ def _write(job: Job, traces: Any, fit: Any, canvas: tuple[int, int], target: Any
         {"canvas": {"width": canvas[0], "height": canvas[1]},
          "traces": [s.tolist() for s in traces.strokes]}))
     segments = [bezier_segments(p).detach() for p in plans]
-    write_svg(folder / "drawing.svg", [s[..., :2] for s in segments], [p.width for p in plans],
-              size)
+    write_svg(folder / "drawing.svg", segments, [p.width for p in plans], size)
     rendered = fit.rendered.cpu()
     write_png(folder / "drawing.png", rendered)
     write_overlay(folder / "overlay.png", target.cpu(), rendered, traces=traces.strokes,

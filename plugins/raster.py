@@ -1,7 +1,9 @@
 """The built-in 'raster' renderer: a differentiable anti-aliased stroke rasterizer.
 
-Cubic segments are cut into short chords, each drawn as a capsule of radius w/2 with the
-anti-aliased coverage clamp(r + ½ − d, 0, 1), united by a per-pixel max. The implementation
+Cubic segments are cut into short chords, each drawn as a capsule of radius r with the
+anti-aliased coverage clamp(r + ½ − d, 0, 1), united by a per-pixel max. Segments (S, 4, 2)
+come with widths (S,), r = w/2; segments (S, 4, 3) carry the radius in px as their third
+coordinate (widths ignored) and the width varies along the stroke. The implementation
 lives in :mod:`inkmotion.rendering.raster`; this module is the plugin's registration only
 and imports no torch, so listing plugins stays fast.
 """
@@ -27,8 +29,10 @@ class RasterRenderer:
     def __call__(
         self, segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int
     ) -> torch.Tensor:
-        """Coverage image (H, W) in [0, 1] of cubic segments (S, 4, 2) with widths (S,);
-        checks its input (ValueError on NaN) and sizes itself from the data."""
+        """Coverage image (H, W) in [0, 1] of cubic segments (S, 4, 2) with widths (S,), or
+        (S, 4, 3) whose third coordinate is the radius in px (widths then ignored); checks
+        its input (ValueError on NaN or a negative width or radius) and sizes itself from
+        the data."""
         from inkmotion.rendering.raster import render_segments
 
         return render_segments(segments, widths, height, width)

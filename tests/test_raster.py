@@ -149,9 +149,12 @@ def test_per_segment_widths(render: Render, device: torch.device) -> None:
     assert torch.allclose(thick, torch.full_like(thick, 8.0), atol=1e-4)
 
 
-def test_radius_column_is_ignored(render: Render) -> None:
-    seg3 = torch.cat([CURVE, torch.full((1, 4, 1), 7.0, dtype=torch.float64)], 2)
-    assert torch.equal(render(seg3, 3.0, 64, 96), render(CURVE, 3.0, 64, 96))
+def test_constant_radius_column_draws_that_width(render: Render) -> None:
+    """A 3rd coordinate is the radius in px and the widths are then ignored: a constant
+    radius 3.5 draws what width 7 draws in 2-D (varying radii: tests/test_varying_width.py)."""
+    seg3 = torch.cat([CURVE, torch.full((1, 4, 1), 3.5, dtype=torch.float64)], 2)
+    torch.testing.assert_close(render(seg3, 3.0, 64, 96), render(CURVE, 7.0, 64, 96),
+                               atol=1e-12, rtol=0)
 
 
 @pytest.mark.parametrize("bad", ["segments", "widths"])

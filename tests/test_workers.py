@@ -204,3 +204,26 @@ def test_submit_of_a_version_1_job_json_reproduces_its_plan(workers, service_env
     r = store.get_job(job["id"])
     plan = json.loads((Path(r.artifact_dir) / "plan.json").read_text())
     assert plan == json.loads((v1 / "plan.json").read_text())
+
+
+def test_submit_abstract_of_a_photo_runs_on_a_worker(workers, service_env, tmp_path):
+    """The 'abstract' kind through the queue: the photo is copied into the job, the tiny
+    random CLIP model is recorded as such, the result is one path."""
+    from test_generation import TINY as TINY_CLIP
+    from test_generation import write_photo
+
+    photo = write_photo(tmp_path / "photo.png", 64)
+    res = inkmotion_cli("submit", "abstract", str(photo), "--clip-model", TINY_CLIP,
+                        "--clip-weights", "random", "--steps", "4", "--size", "64",
+                        "--targets", "20", "--json")
+    assert res.returncode == 0, res.stderr
+    (job,) = json.loads(res.stdout)
+    assert (job["kind"], job["queue"]) == ("abstract", "optimise")
+    wait_succeeded(job["id"])
+    r = store.get_job(job["id"])
+    assert (r.status, r.step, r.total) == ("succeeded", 4, 4)
+    artifacts = Path(r.artifact_dir)
+    assert {"saliency.png", "init.png", "plan.json"} <= {p.name for p in artifacts.iterdir()}
+    assert json.loads((artifacts / "job.json").read_text())["clip_weights"] == "random"
+    assert len(json.loads((artifacts / "plan.json").read_text())["paths"]) == 1
+    assert r.metrics["moves"] == 19

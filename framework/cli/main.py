@@ -19,7 +19,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from inkmotion.cli import jobs, run, submit, view, worker
+from inkmotion.cli import clip, jobs, run, submit, view, worker
 from inkmotion.cli.errors import EXIT_USER, fail, report
 from inkmotion.errors import InkmotionError
 
@@ -56,8 +56,9 @@ def plugins_cmd(
 def bench_cmd(
     only: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
         "--only",
-        help="Run only these: kinematics, raster, fit, recording (the default set), or "
-             "queue (opt-in: starts a local redis-server and 2 workers).")] = None,
+        help="Run only these: kinematics, raster, fit, recording (the default set), "
+             "queue (opt-in: starts a local redis-server and 2 workers) or generation "
+             "(opt-in: CLIP tag and abstract seconds per step).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
         help="Input of the fit benchmark (default: ../shared 49867.json, else text:inkmotion).")
     ] = None,
@@ -75,6 +76,8 @@ def bench_cmd(
 
       inkmotion bench --only queue
 
+      inkmotion bench --only generation --device cuda
+
       inkmotion bench --device cuda
     """
     from inkmotion.benchmarks.suite import run_benchmarks
@@ -89,7 +92,7 @@ def bench_cmd(
 def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
-    for group in (run, submit, jobs, worker, view):
+    for group in (run, submit, jobs, worker, view, clip):
         group.register(app)
 
 

@@ -1,8 +1,9 @@
 """The compound objective of a fit: λ·L_smooth + w_I·Σ L_I + w_c·canvas term.
 
 One evaluation is the hot loop's forward pass: ΣΛ kinematics on the fitting grid
-(n_p = samples_per_move·m_p) → Hermite Bézier segments → render → image losses, plus the
-smoothing cost (DESIGN.md § Fitting defaults) and a term keeping targets on the canvas.
+(n_p = samples_per_move·m_p) → Hermite Bézier segments (S, 4, D), a 3-D plan's radius
+included → render → image losses, plus the smoothing cost (DESIGN.md § Fitting defaults)
+and a term keeping targets on the canvas.
 
 No host synchronisation (DESIGN.md § Devices): the grid's index structure (a
 :class:`~inkmotion.sigma_lognormal.batch.GridLayout`) is built on the first call, with a
@@ -96,8 +97,10 @@ class Objective:
         if overflow is not None:
             self._window_overflow = overflow if self._window_overflow is None \
                 else self._window_overflow | overflow
+        # (S, 4, D): a 3-D plan's radius coordinate goes to the renderer, which ignores the
+        # widths then (the Renderer protocol)
         segments = hermite_segments(kin.positions, kin.velocities, layout, dt)
-        rendered = self._draw(segments[..., :2].contiguous(), batch.widths[layout.segment_path])
+        rendered = self._draw(segments, batch.widths[layout.segment_path])
         terms: dict[str, torch.Tensor] = {}
         image = rendered.new_zeros(())
         for name, fn in self.image_losses.items():

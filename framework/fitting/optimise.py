@@ -5,6 +5,12 @@ Hermite Bézier segments → render → image losses + λ·L_smooth + canvas ter
 Adam step with per-parameter learning rates and a cosine decay, and applies the clamps
 Δt ∈ [0.1, 0.9], δ ∈ [−π/2, π/2], Ac ∈ [1e-4, 0.1] (DESIGN.md § Fitting defaults).
 
+A 3-D plan (x, y, r: the stroke radius in px, the 2.5D extension) is optimised as two
+leaves, the targets' x, y (N, 2) at ``lr_points`` and their radii r (N, 1) at
+``lr_radius``, joined by ``torch.cat`` into the (N, 3) points of every step (a copy of
+3N numbers), with r clamped to ``radius_range`` after each step. A 2-D plan keeps its
+single points leaf: the same arithmetic, bit for bit, as before radii existed.
+
 No host synchronisation inside a step: loss terms stay 0-d tensors on the device and go to
 the observers as such (they read them when they show them); the loss is checked for NaN
 only every ``check_every`` steps and at the end, with one read of an accumulated flag.
@@ -37,6 +43,18 @@ class OptimiserSettings:
     lr_ac: float = 0.0  # 0 keeps Ac fixed
     lr_final: float = 0.1  # cosine decay to this fraction
     check_every: int = 25  # read the NaN flag from the device every k steps
+    #: px per step of a 3-D plan's radius. Adam moves a parameter by about its learning
+    #: rate per step, so 0.1 px crosses the whole default range (3.5 px) in ~40 steps of a
+    #: 300-step fit, while one step changes a stroke's width by ≤ 0.2 px, well inside the
+    #: 1-px anti-aliasing ramp whose gradient drives it (targets move 20× faster: they
+    #: travel tens of px, a radius a few)
+    lr_radius: float = 0.1
+    #: px, the clamp of a 3-D plan's radius. Below 0.5 px (a 1-px line) the coverage
+    #: clamp(r + ½ − d, 0, 1) never reaches full ink and a stroke could fade out to cheat
+    #: the image loss (a pen lift the motor plan does not have); 4 px (an 8-px brush, 2.3 %
+    #: of the 350-px canvas) brackets the 3-px default pen generously without letting
+    #: strokes blot out the shape, and bounds the renderer's patch size
+    radius_range: tuple[float, float] = (0.5, 4.0)
 
 
 @dataclass
@@ -137,15 +155,27 @@ def optimise(
     """
     start = time.perf_counter()
     src = PlanBatch.from_plans([p.detached() for p in plans])
+    three = src.points.shape[1] == 3  # radius coordinate (2.5D): its own leaf
     leaves = {k: getattr(src, k).clone().requires_grad_(True)
               for k in ("points", "delta_t", "delta", "ac")}
-    batch = PlanBatch(leaves["points"], leaves["delta_t"], leaves["delta"], leaves["ac"],
-                      src.T, src.moves, src.widths)
-    groups = [(leaves["points"], settings.lr_points), (leaves["delta_t"], settings.lr_delta_t),
-              (leaves["delta"], settings.lr_delta)]
+    if three:
+        del leaves["points"]
+        leaves["xy"] = src.points[:, :2].clone().requires_grad_(True)  # (N, 2)
+        leaves["r"] = src.points[:, 2:].clone().requires_grad_(True)  # (N, 1)
+
+    def assemble() -> PlanBatch:
+        """The batch of the current leaves; for 3-D plans points = [xy | r] (N, 3)."""
+        points = torch.cat((leaves["xy"], leaves["r"]), 1) if three else leaves["points"]
+        return PlanBatch(points, leaves["delta_t"], leaves["delta"], leaves["ac"], src.T,
+                         src.moves, src.widths)
+
+    groups = ([(leaves["xy"], settings.lr_points), (leaves["r"], settings.lr_radius)] if three
+              else [(leaves["points"], settings.lr_points)])
+    groups += [(leaves["delta_t"], settings.lr_delta_t), (leaves["delta"], settings.lr_delta)]
     if settings.lr_ac > 0:
         groups.append((leaves["ac"], settings.lr_ac))
     optimiser = Adam(groups)
+    batch = assemble()
     on_step = getattr(observers, "on_step", None)
     states = _StepStates(observers, plans, settings.steps)
 
@@ -158,6 +188,8 @@ def optimise(
     finite = torch.ones((), dtype=torch.bool, device=src.points.device)  # all steps so far
     for step in range(1, settings.steps + 1):
         optimiser.zero_grad()
+        if three:
+            batch = assemble()  # a new graph from the updated leaves
         ev = objective(batch)
         ev.total.backward()
         optimiser.step(cosine(step - 1, settings.steps, settings.lr_final))
@@ -165,6 +197,8 @@ def optimise(
             leaves["delta_t"].clamp_(*DELTA_T_RANGE)
             leaves["delta"].clamp_(*DELTA_RANGE)
             leaves["ac"].clamp_(*AC_RANGE)
+            if three:
+                leaves["r"].clamp_(*settings.radius_range)
             finite = finite & torch.isfinite(ev.total.detach())
         if step % settings.check_every == 0 and not bool(finite):
             raise _not_finite()
@@ -172,6 +206,7 @@ def optimise(
             on_step(states(step, ev, batch))
 
     with torch.no_grad():
+        batch = assemble()
         last = objective(batch)
     final_terms = scalars(_terms(last))
     if not bool(finite) or not math.isfinite(final_terms["total"]):

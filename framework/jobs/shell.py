@@ -157,7 +157,10 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
 
 
 def record_job(folder: Path, spec: JobSpec, report: dict) -> None:
-    """Write job.json (the spec, versions, seed) and report.json into ``folder``."""
-    job = {"spec": spec.to_dict(), "versions": versions(), "seed": spec.seed}
+    """Write job.json (the spec, versions, seed, and the report's ``provenance``: what the
+    result was made with beyond the spec, e.g. ``"clip_weights": "random"``) and report.json
+    into ``folder``."""
+    job = {"spec": spec.to_dict(), "versions": versions(), "seed": spec.seed,
+           **report.get("provenance", {})}
     (folder / "job.json").write_text(json.dumps(job, indent=1))
     (folder / "report.json").write_text(json.dumps(report, indent=1))

@@ -23,7 +23,9 @@ class JobInputs:
     """A job's inputs as an initialiser sees them: whichever exist are set.
 
     ``traces``: strokes in canvas px; ``image``: (H, W) or (3, H, W) tensor in [0, 1];
-    ``saliency``: (H, W) map in [0, 1]; ``caption``: text; ``canvas``: (width, height) px.
+    ``saliency``: (H, W) map in [0, 1]; ``caption``: text; ``canvas``: (width, height) px;
+    ``targets``: how many virtual targets (sub-movements) the job asks for, None for the
+    initialiser's own default (an initialiser that derives them from the input ignores it).
     """
 
     canvas: tuple[int, int]
@@ -31,15 +33,19 @@ class JobInputs:
     image: torch.Tensor | None = None
     saliency: torch.Tensor | None = None
     caption: str | None = None
+    targets: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
 class Reference:
-    """What an image loss compares a rendering with: an image, a caption, or both."""
+    """What an image loss (or a saliency estimator) compares with: an image, a caption, or
+    both. ``extra`` carries what a job kind shares with its plugins, e.g. ``"clip"``: the
+    job's loaded CLIP model (:class:`inkmotion.clip.model.LoadedClip`), loaded once."""
 
-    image: torch.Tensor | None = None  # (H, W) ink coverage in [0, 1], or (3, H, W)
+    image: torch.Tensor | None = None  # (H, W) ink coverage in [0, 1], or (3, H, W) RGB
     caption: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
 
 
 class Plugin(Protocol):
@@ -83,7 +89,9 @@ class Renderer(Plugin, Protocol):
     def __call__(
         self, segments: torch.Tensor, widths: torch.Tensor, height: int, width: int
     ) -> torch.Tensor:
-        """Render cubic segments (S, 4, 2) with widths (S,) to coverage (H, W) in [0, 1].
+        """Render cubic segments to coverage (H, W) in [0, 1]: segments (S, 4, 2) with
+        widths (S,), or (S, 4, 3) whose third coordinate is the radius in px (widths then
+        ignored; the 2.5D plans of DESIGN.md, the width varying along the stroke).
 
         Optional: ``session(device, static=None)`` returning a callable with the same
         signature that plans its sizes once per fit (static shapes, no device reads on a
@@ -92,8 +100,10 @@ class Renderer(Plugin, Protocol):
 
 
 class Saliency(Plugin, Protocol):
-    def __call__(self, image: torch.Tensor, **options: Any) -> torch.Tensor:
-        """An (H, W) map in [0, 1] of where the image draws the eye."""
+    def __call__(self, image: torch.Tensor, reference: Reference, **options: Any
+                 ) -> torch.Tensor:
+        """An (H, W) map in [0, 1] of where ``image`` (3, H, W) RGB in [0, 1] draws the eye;
+        ``reference`` may hold a caption and the job's CLIP model (``extra["clip"]``)."""
 
 
 class RobotBackend(Plugin, Protocol):

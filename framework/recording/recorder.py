@@ -8,7 +8,8 @@ Layout of the recording (one entity path per stroke, as the rerun examples do):
 ``losses/<name>``, ``t_end``            Scalars on the ``step`` timeline, every step
 ``rendered``                            the rendered image, every ``image_every`` steps
 ``strokes/<p>/trajectory``              the sampled trajectory of path p, LineStrips2D
-``strokes/<p>/targets``                 its virtual targets, Points2D
+``strokes/<p>/targets``                 its virtual targets, Points2D (for a 3-D plan
+                                        sized by their stroke radius in px)
 ``speed/<p>``                           its speed profile: (t, −|v|) as a LineStrips2D
 ======================================  ==================================================
 
@@ -18,6 +19,10 @@ on the steps it logs them (``wants_image`` / ``wants_geometry``), so the optimis
 heavy data it does not need. Per-step scalars and geometry are buffered and sent as
 columns (``send_columns``) every ``flush_every`` steps: one native call per entity per
 flush instead of one per step keeps the recorder well under 10 % of a step.
+
+3-D (2.5D) plans log their x, y like 2-D ones; the radius of a virtual target becomes the
+radius of its dot (rerun's LineStrips2D has one radius per strip, not per vertex, so the
+trajectory keeps its default line).
 """
 
 from __future__ import annotations
@@ -78,6 +83,7 @@ class _StepGeometry:
     positions: tuple[np.ndarray, list[int]]
     speeds: tuple[np.ndarray, list[int]]
     targets: tuple[np.ndarray, list[int]]
+    target_radii: tuple[np.ndarray, list[int]] | None = None  # 3-D plans: (N,) px
 
     def cut(self, what: str, p: int) -> np.ndarray:
         data, offsets = getattr(self, what)
@@ -89,7 +95,8 @@ class _StepGeometry:
 
     def same_layout(self, other: _StepGeometry) -> bool:
         return (self.positions[1] == other.positions[1] and self.speeds[1] == other.speeds[1]
-                and self.targets[1] == other.targets[1])
+                and self.targets[1] == other.targets[1]
+                and (self.target_radii is None) == (other.target_radii is None))
 
 
 def _add(buffer: dict[str, tuple[list[int], list]], entity: str, step: int,
@@ -185,10 +192,13 @@ class RerunRecorder:
                 self._rec.log(f"strokes/{p}", rr.Clear(recursive=True))
                 self._rec.log(f"speed/{p}", rr.Clear(recursive=True))
         self._paths_logged = n_paths
+        radii = None
+        if state.targets and state.targets[0].shape[-1] == 3:  # (n, 3): x, y, r
+            radii = _flat([t[:, 2] for t in state.targets], 0)
         self._geometry.append(_StepGeometry(
             step=step, t_end=float(state.t_end),  # geometry steps read the device anyway
             positions=_flat(state.positions, 2), speeds=_flat(state.speeds, 0),
-            targets=_flat(state.targets, 2)))
+            targets=_flat(state.targets, 2), target_radii=radii))
 
     def flush(self) -> None:
         """Send the buffered steps as columns (one call per entity)."""
@@ -231,7 +241,9 @@ class RerunRecorder:
                                  .partition(lengths=ones))
                 if p < first.count("targets"):
                     pts = [g.cut("targets", p) for g in group]
-                    cols = rr.Points2D.columns(positions=np.concatenate(pts))
+                    radii = None if first.target_radii is None else np.concatenate(
+                        [g.cut("target_radii", p) for g in group])
+                    cols = rr.Points2D.columns(positions=np.concatenate(pts), radii=radii)
                     rec.send_columns(f"strokes/{p}/targets", indexes=[steps],
                                      columns=cols.partition(lengths=[len(x) for x in pts]))
                 if p < first.count("speeds"):

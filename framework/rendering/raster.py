@@ -2,8 +2,8 @@
 
 Each cubic Bézier segment is cut into short straight pieces (chords between uniformly
 spaced parameters; the count per segment follows its length and its flatness, computed
-from detached values). Every piece is a capsule of radius r = w/2, and a pixel whose
-centre lies at distance d from the piece gets the anti-aliased coverage
+from detached values). Every piece is a capsule of radius r, and a pixel whose centre lies
+at distance d from the piece gets the anti-aliased coverage
 
     c = clamp(r + 1/2 − d, 0, 1)        (ink = 1, paper = 0)
 
@@ -11,8 +11,19 @@ The stroke is the union of its capsules: the image is the per-pixel maximum of c
 pieces (``scatter_reduce(..., "amax")``), which for a polyline equals the coverage of the
 distance to the whole polyline (round joins and round caps). Only a small pixel patch
 around each piece is evaluated, so the cost follows the covered pixels, not
-pixels × segments. Gradients flow to the control points and to the widths; the device and
-dtype follow the inputs.
+pixels × segments. The device and dtype follow the inputs.
+
+Segments are (S, 4, 2) with widths (S,): r = w/2 for every piece of segment s; or
+(S, 4, 3), the third coordinate being the stroke radius in px (the 2.5D plans of
+DESIGN.md; widths are then ignored). There the radius is a cubic in u like x and y,
+evaluated with them at the piece's two ends (r_a, r_b, clamped at 0), and interpolated
+along the piece at the pixel's projection t:
+
+    r(t) = r_a + t·(r_b − r_a),         c = clamp(r(t) + 1/2 − d, 0, 1)
+
+so the width changes continuously (consecutive pieces meet with the same radius, no
+steps every 3 px) at the cost of one multiply-add per evaluated pixel. Gradients flow to
+the control points and to the widths, or to the radius coordinate.
 
 Two paths compute the same image:
 
@@ -62,9 +73,10 @@ def check_inputs(
     segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
     check: bool = True,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Control points (S, 4, 2) and widths (S,) in the segments' dtype, after checking the
-    shapes (Python-level, free). With ``check`` also the values (NaN, inf, negative widths),
-    which reads the device: a fitting loop passes ``check=False`` and checks its loss."""
+    """Control points (S, 4, D) and widths (S,) in the segments' dtype, after checking the
+    shapes (Python-level, free). With ``check`` also the values (NaN, inf, negative widths
+    or, for D = 3, negative radii), which reads the device: a fitting loop passes
+    ``check=False`` and checks its loss. For D = 3 the widths' values are ignored."""
     if not isinstance(segments, torch.Tensor) or segments.dim() != 3 or segments.shape[1] != 4 \
             or segments.shape[2] not in (2, 3):
         shape = tuple(segments.shape) if isinstance(segments, torch.Tensor) else type(segments)
@@ -73,7 +85,7 @@ def check_inputs(
         raise ValueError(f"Renderer segments must be floating point, got {segments.dtype}.")
     if int(height) <= 0 or int(width) <= 0:
         raise ValueError(f"Canvas size must be positive, got {height}×{width}.")
-    ctrl = segments[..., :2]  # (S, 4, 2); a 3rd (radius) column is ignored
+    ctrl = segments  # (S, 4, D): x, y[, r]
     n_seg = ctrl.shape[0]
     if isinstance(widths, torch.Tensor):
         w = widths.to(dtype=ctrl.dtype, device=ctrl.device)
@@ -86,11 +98,42 @@ def check_inputs(
     if check:
         if not bool(torch.isfinite(ctrl).all()):
             raise ValueError("Renderer segments contain NaN or infinite coordinates.")
-        if not bool(torch.isfinite(w).all()):
+        if _varying(ctrl):
+            if bool((ctrl[..., 2] < 0).any()):
+                raise ValueError("Stroke radii (the segments' 3rd coordinate) must be "
+                                 "non-negative.")
+        elif not bool(torch.isfinite(w).all()):
             raise ValueError("Stroke widths contain NaN or infinite values.")
-        if bool((w < 0).any()):
+        elif bool((w < 0).any()):
             raise ValueError("Stroke widths must be non-negative.")
     return ctrl, w
+
+
+def _varying(ctrl: torch.Tensor) -> bool:
+    """Whether the segments (S, 4, D) carry their own radius (D = 3): a shape, no read."""
+    return ctrl.shape[-1] == 3
+
+
+def segment_radii(ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
+    """Largest radius of each segment (S,): w/2, or for D = 3 the largest control radius
+    clamped at 0 (a cubic lies in the hull of its control values, so r(u) ≤ max r_k)."""
+    if _varying(ctrl):
+        return ctrl[..., 2].amax(1).clamp(min=0)
+    return w / 2
+
+
+def piece_radii(a: torch.Tensor, b: torch.Tensor, radii: torch.Tensor,
+                piece_seg: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Radii of pieces with ends a, b (N, D): (r_a, r_b) (N,) each, clamped at 0, for
+    D = 3; else (radii[piece_seg], None), one radius per piece."""
+    if a.shape[-1] == 3:
+        return a[:, 2].clamp(min=0), b[:, 2].clamp(min=0)
+    return radii[piece_seg], None
+
+
+def _reach(r: torch.Tensor, r_end: torch.Tensor | None) -> torch.Tensor:
+    """Largest radius of each piece (N,): r, or max(r_a, r_b)."""
+    return r if r_end is None else torch.maximum(r, r_end)
 
 
 def _finite(x: torch.Tensor) -> torch.Tensor:
@@ -106,6 +149,7 @@ def piece_cap(height: int, width: int) -> int:
 
 def piece_counts(ctrl: torch.Tensor, radii: torch.Tensor, height: int, width: int) -> torch.Tensor:
     """Number of straight pieces per segment (S,), detached, 0 for segments off the canvas.
+    ``ctrl`` (S, 4, D): only x, y count; ``radii`` (S,) the largest radius of each segment.
 
     n = max(⌈|control polygon| / PIECE_LENGTH⌉, ⌈√(0.75·M / FLATNESS)⌉, 1), with
     M = max(|P0 − 2P1 + P2|, |P1 − 2P2 + P3|): the chord error of n uniform pieces is at most
@@ -114,7 +158,7 @@ def piece_counts(ctrl: torch.Tensor, radii: torch.Tensor, height: int, width: in
     counts (at most the cap), never a huge allocation.
     """
     with torch.no_grad():
-        ctrl, radii = _finite(ctrl), _finite(radii)
+        ctrl, radii = _finite(ctrl[..., :2]), _finite(radii)  # (S, 4, 2), (S,)
         legs = ctrl[:, 1:] - ctrl[:, :-1]  # (S, 3, 2)
         poly = legs.norm(dim=-1).sum(-1)  # (S,)
         bend = (legs[:, 1:] - legs[:, :-1]).norm(dim=-1).amax(-1)  # (S,)
@@ -129,7 +173,7 @@ def piece_counts(ctrl: torch.Tensor, radii: torch.Tensor, height: int, width: in
 
 def _cubic_points(ctrl: torch.Tensor, seg: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
     """B(u) = (1−u)³P0 + 3u(1−u)²P1 + 3u²(1−u)P2 + u³P3 of segments ``seg`` (K,) at u (K,):
-    (K, 2), differentiable in ctrl."""
+    (K, D), differentiable in ctrl (S, 4, D)."""
     u = u[:, None]  # (K, 1)
     v = 1 - u
     basis = torch.cat((v * v * v, 3 * u * v * v, 3 * u * u * v, u * u * u), 1)  # (K, 4)
@@ -140,8 +184,8 @@ def flatten(ctrl: torch.Tensor, counts: torch.Tensor) -> tuple[torch.Tensor, tor
                                                                   torch.Tensor]:
     """Chop each cubic into ``counts[s]`` chords between the parameters u = k / counts[s].
 
-    Returns the pieces' start points (N, 2), end points (N, 2) and segment index (N,),
-    N = Σ counts (read from the device); differentiable in ctrl.
+    Returns the pieces' start points (N, D), end points (N, D) and segment index (N,),
+    N = Σ counts (read from the device); differentiable in ctrl (S, 4, D).
     """
     n_seg, dev = ctrl.shape[0], ctrl.device
     seg_ids = torch.arange(n_seg, device=dev)
@@ -150,7 +194,7 @@ def flatten(ctrl: torch.Tensor, counts: torch.Tensor) -> tuple[torch.Tensor, tor
     first = torch.cumsum(npts, 0) - npts  # (S,) index of each segment's first point
     k = torch.arange(point_seg.shape[0], device=dev) - first[point_seg]  # (P,)
     u = k.to(ctrl.dtype) / counts[point_seg].to(ctrl.dtype)  # (P,)
-    pts = _cubic_points(ctrl, point_seg, u)  # (P, 2)
+    pts = _cubic_points(ctrl, point_seg, u)  # (P, D)
     piece_seg = torch.repeat_interleave(seg_ids, counts)  # (N,)
     # piece j of segment s starts at point first[s] + (j − Σ_{s'<s} counts[s']) = j + (#segments
     # before s that have points); with culled segments that is j + rank of s among kept ones
@@ -165,7 +209,7 @@ def flatten_static(ctrl: torch.Tensor, counts: torch.Tensor, pieces: int
 
     Piece p belongs to segment s with ends[s−1] ≤ p < ends[s] (ends = cumsum(counts)) and
     runs from u = j/n to (j+1)/n, j = p − ends[s−1]; pieces past Σ counts are padding.
-    Returns start points (B, 2), end points (B, 2), segment (B,), valid (B,) bool.
+    Returns start points (B, D), end points (B, D), segment (B,), valid (B,) bool.
     """
     dtype, dev = ctrl.dtype, ctrl.device
     ends = torch.cumsum(counts, 0)  # (S,)
@@ -197,9 +241,10 @@ def pixel_ranges(a: torch.Tensor, b: torch.Tensor, r: torch.Tensor, height: int,
                  width: int) -> tuple[torch.Tensor, torch.Tensor]:
     """First and last pixel (column, row) whose centre lies within r + ½ of each piece: c0
     in [0, size], c1 in [−1, size − 1], (N, 2) long each; c1 < c0 for a piece off the
-    canvas. Detached, from finite copies: NaN input cannot give a wild index."""
+    canvas. Detached, from finite copies: NaN input cannot give a wild index. a, b (N, D):
+    only x, y count; r (N,) the largest radius of each piece."""
     with torch.no_grad():
-        a, b = _finite(a), _finite(b)
+        a, b = _finite(a[:, :2]), _finite(b[:, :2])
         reach = (_finite(r) + 0.5)[:, None]  # (N, 1)
         lo = torch.minimum(a, b) - reach  # (N, 2)
         hi = torch.maximum(a, b) + reach
@@ -210,20 +255,24 @@ def pixel_ranges(a: torch.Tensor, b: torch.Tensor, r: torch.Tensor, height: int,
 
 
 def capsule_coverage(
-    a: torch.Tensor,  # (N, 2) piece starts
-    b: torch.Tensor,  # (N, 2) piece ends
-    r: torch.Tensor,  # (N,) radii
+    a: torch.Tensor,  # (N, D) piece starts (x, y count)
+    b: torch.Tensor,  # (N, D) piece ends
+    r: torch.Tensor,  # (N,) radii, or the radii r_a at the starts
     c0: torch.Tensor,  # (N, 2) first pixel (column, row)
     c1: torch.Tensor,  # (N, 2) last pixel
     patch: tuple[int, int],  # (kx, ky) pixels evaluated from c0
     height: int,
     width: int,
     valid: torch.Tensor | None = None,  # (N,) bool: pieces to draw
+    r_end: torch.Tensor | None = None,  # (N,) radii r_b at the ends (varying width)
 ) -> torch.Tensor:
     """Image (H, W): per pixel the max over pieces of clamp(r + ½ − d, 0, 1), d the distance
-    of the pixel centre to the capsule's axis, t = clamp(ap·ab / |ab|², 0, 1), d = |ap − t·ab|.
+    of the pixel centre to the capsule's axis, t = clamp(ap·ab / |ab|², 0, 1), d = |ap − t·ab|;
+    with ``r_end``, r = r_a + t·(r_b − r_a) (the width varies along the piece).
     Only the patch of kx × ky pixels from c0 (clipped at c1) of each piece is evaluated."""
     kx, ky = patch
+    if a.shape[1] != 2:
+        a, b = a[:, :2], b[:, :2]  # (N, 2): the radius came in r, r_end
     dtype, dev = a.dtype, a.device
     with torch.no_grad():
         xs = c0[:, :1] + torch.arange(kx, device=dev)  # (N, kx) pixel columns
@@ -242,22 +291,32 @@ def capsule_coverage(
     t = ((dx * abx + dy * aby) * inv_len2[:, None, None]).clamp(0, 1)  # (N, ky, kx)
     ex, ey = dx - t * abx, dy - t * aby
     d = torch.sqrt(ex * ex + ey * ey + _EPS)  # (N, ky, kx)
-    cov = (r[:, None, None] + 0.5 - d).clamp(0, 1) * inside  # (N, ky, kx)
+    if r_end is None:
+        rad = r[:, None, None]  # (N, 1, 1)
+    else:
+        rad = r[:, None, None] + t * (r_end - r)[:, None, None]  # (N, ky, kx)
+    cov = (rad + 0.5 - d).clamp(0, 1) * inside  # (N, ky, kx)
     img = torch.zeros(height * width, dtype=dtype, device=dev)
     img = img.scatter_reduce(0, flat.reshape(-1), cov.reshape(-1), reduce="amax",
                              include_self=True)
     return img.reshape(height, width)
 
 
+def _inputs_sum(ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
+    """Σ of the inputs the image depends on (0-d): the control points, and the widths unless
+    the segments carry their own radius (then the widths are ignored)."""
+    return ctrl.sum() if _varying(ctrl) else ctrl.sum() + w.sum()
+
+
 def _paper(ctrl: torch.Tensor, w: torch.Tensor, height: int, width: int) -> torch.Tensor:
     """A blank image (H, W) that keeps the graph to the inputs (zero gradient)."""
-    return ctrl.new_zeros(height, width) + 0 * (ctrl.sum() + w.sum())
+    return ctrl.new_zeros(height, width) + 0 * _inputs_sum(ctrl, w)
 
 
 def _poison(img: torch.Tensor, ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
-    """``img`` unchanged, or all NaN when a coordinate or width is not finite (no device
-    read): unchecked NaN input must reach the loss, where the fitting loop looks for it."""
-    return img + 0 * (ctrl.sum() + w.sum())
+    """``img`` unchanged, or all NaN when a coordinate, radius or width is not finite (no
+    device read): unchecked NaN input must reach the loss, where the fitting loop looks."""
+    return img + 0 * _inputs_sum(ctrl, w)
 
 
 # --- the two paths ---------------------------------------------------------------------------
@@ -265,30 +324,34 @@ def render_segments(
     segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
     check: bool = True,
 ) -> torch.Tensor:
-    """Render cubic Bézier segments (S, 4, 2) in pixel coordinates (x right, y down; pixel
-    (r, c) centred at (c + ½, r + ½)) with stroke widths (S,) or a number to a coverage image
-    (H, W) in [0, 1]: I(p) = max over pieces of clamp(w/2 + ½ − dist(p, piece), 0, 1).
+    """Render cubic Bézier segments in pixel coordinates (x right, y down; pixel (r, c)
+    centred at (c + ½, r + ½)) to a coverage image (H, W) in [0, 1]: segments (S, 4, 2) with
+    stroke widths (S,) or a number, I(p) = max over pieces of clamp(w/2 + ½ − d(p), 0, 1);
+    or segments (S, 4, 3) whose 3rd coordinate is the radius in px (widths ignored), each
+    piece's radius interpolated between its ends (module docstring).
 
-    Differentiable w.r.t. segments and widths. Raises ValueError on bad shapes, and with
-    ``check`` on NaN/inf input (without, such input gives a NaN image). A 3rd (radius)
-    coordinate, if present, is ignored. Sizes follow the data (reads the device).
+    Differentiable w.r.t. segments (radius included) and widths. Raises ValueError on bad
+    shapes, and with ``check`` on NaN/inf input or negative widths or radii (without, NaN
+    gives a NaN image and a negative radius draws nothing). Sizes follow the data (reads
+    the device).
     """
     height, width = int(height), int(width)
     ctrl, w = check_inputs(segments, widths, height, width, check)
-    radii = w / 2  # (S,)
+    radii = segment_radii(ctrl, w)  # (S,)
     counts = piece_counts(ctrl, radii, height, width)  # (S,)
     if ctrl.shape[0] == 0 or int(counts.sum()) == 0:
         return _paper(ctrl, w, height, width)
-    a, b, piece_seg = flatten(ctrl, counts)  # (N, 2), (N, 2), (N,)
-    r = radii[piece_seg]  # (N,)
-    c0, c1 = pixel_ranges(a, b, r, height, width)  # (N, 2) each
+    a, b, piece_seg = flatten(ctrl, counts)  # (N, D), (N, D), (N,)
+    r, r_end = piece_radii(a, b, radii, piece_seg)  # (N,), (N,) or None
+    c0, c1 = pixel_ranges(a, b, _reach(r, r_end), height, width)  # (N, 2) each
     keep = (c1 >= c0).all(1)  # (N,) pieces that touch the canvas
     if not bool(keep.all()):
         a, b, r, c0, c1 = a[keep], b[keep], r[keep], c0[keep], c1[keep]
+        r_end = None if r_end is None else r_end[keep]
     if a.shape[0] == 0:
         return _paper(ctrl, w, height, width)
     kx, ky = (c1 - c0 + 1).amax(0).tolist()  # patch size: the widest piece range
-    img = capsule_coverage(a, b, r, c0, c1, (kx, ky), height, width)
+    img = capsule_coverage(a, b, r, c0, c1, (kx, ky), height, width, r_end=r_end)
     return img if check else _poison(img, ctrl, w)
 
 
@@ -296,34 +359,36 @@ def render_segments_static(
     segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
     budget: RasterBudget, check: bool = False,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """:func:`render_segments` with the static sizes of ``budget``: no device read, the
-    same image while the data fit the budget. Returns the image (H, W) and a 0-d bool on
-    the device, True when they (nearly) outgrew it: past ``ALARM`` of the pieces or a piece
-    as wide as the patch; past the budget itself the curve is drawn with fewer pieces or
-    clipped patches. NaN input gives a NaN image unless ``check`` (which reads the device).
+    """:func:`render_segments` (segments (S, 4, 2) with widths, or (S, 4, 3) with radii) with
+    the static sizes of ``budget``: no device read, the same image while the data fit it.
+    Returns the image (H, W) and a 0-d bool on the device, True when they (nearly) outgrew
+    it: past ``ALARM`` of the pieces or a piece as wide as the patch; past the budget
+    itself the curve is drawn with fewer pieces or clipped patches. NaN input gives a NaN
+    image unless ``check`` (which reads the device).
     """
     height, width = int(height), int(width)
     ctrl, w = check_inputs(segments, widths, height, width, check)
     if ctrl.shape[0] == 0:
         return _paper(ctrl, w, height, width), torch.zeros((), dtype=torch.bool,
                                                            device=ctrl.device)
-    radii = w / 2  # (S,)
+    radii = segment_radii(ctrl, w)  # (S,)
     counts, too_many = fit_counts(piece_counts(ctrl, radii, height, width), budget.pieces)
     a, b, piece_seg, valid = flatten_static(ctrl, counts, budget.pieces)  # (B, ...)
-    r = radii[piece_seg]  # (B,)
-    c0, c1 = pixel_ranges(a, b, r, height, width)  # (B, 2) each
+    r, r_end = piece_radii(a, b, radii, piece_seg)  # (B,), (B,) or None
+    c0, c1 = pixel_ranges(a, b, _reach(r, r_end), height, width)  # (B, 2) each
     with torch.no_grad():  # pieces on the canvas as wide as the patch
         extent = c1 - c0 + 1  # (B, 2), ≤ 0 off the canvas
         too_wide = (((extent[:, 0] >= budget.patch_x) | (extent[:, 1] >= budget.patch_y))
                     & (extent > 0).all(1) & valid).any()
     img = capsule_coverage(a, b, r, c0, c1, (budget.patch_x, budget.patch_y), height, width,
-                           valid)
+                           valid, r_end)
     return _poison(img, ctrl, w), too_many | too_wide
 
 
 def plan_budget(segments: torch.Tensor, widths: torch.Tensor | float, height: int,
                 width: int, headroom: float = HEADROOM) -> RasterBudget:
-    """A :class:`RasterBudget` for segments like these (reads the device, once): the pieces
+    """A :class:`RasterBudget` for segments (S, 4, 2 or 3) like these (reads the device,
+    once): the pieces
     they need × ``headroom`` plus one per segment, and the widest piece's pixel range plus
     ``PATCH_MARGIN``, within the bounds of :func:`render_segments` (at most
     :func:`piece_cap` pieces per segment, a patch at most the canvas)."""
@@ -331,14 +396,15 @@ def plan_budget(segments: torch.Tensor, widths: torch.Tensor | float, height: in
     with torch.no_grad():
         ctrl, w = check_inputs(segments, widths, height, width, check=False)
         n_seg = ctrl.shape[0]
-        radii = w / 2
+        radii = segment_radii(ctrl, w)  # (S,)
         counts = piece_counts(ctrl, radii, height, width)
         total = int(counts.sum())
         pieces = min(math.ceil(headroom * total) + n_seg, piece_cap(height, width) * n_seg)
         kx = ky = 1
         if total > 0:
             a, b, piece_seg = flatten(ctrl, counts)
-            c0, c1 = pixel_ranges(a, b, radii[piece_seg], height, width)
+            c0, c1 = pixel_ranges(a, b, _reach(*piece_radii(a, b, radii, piece_seg)),
+                                  height, width)
             extent = torch.where((c1 >= c0).all(1, keepdim=True), c1 - c0 + 1, 1)
             kx, ky = extent.amax(0).tolist()
         bound = lambda k, side: max(1, min(k + PATCH_MARGIN, side + 1))  # noqa: E731
@@ -361,10 +427,11 @@ class RasterSession:
 
     def __call__(self, segments: torch.Tensor, widths: torch.Tensor | float, height: int,
                  width: int) -> torch.Tensor:
-        """Coverage image (H, W) of cubic segments (S, 4, 2) with widths (S,) or a number."""
+        """Coverage image (H, W) of cubic segments (S, 4, 2) with widths (S,) or a number,
+        or (S, 4, 3) whose 3rd coordinate is the radius in px (widths ignored)."""
         if not self.static:
             return render_segments(segments, widths, height, width, check=self.check)
-        key = (segments.shape[0], int(height), int(width), segments.device, segments.dtype)
+        key = (tuple(segments.shape), int(height), int(width), segments.device, segments.dtype)
         budget = self.budgets.get(key)
         if budget is None:
             budget = self.budgets[key] = plan_budget(segments, widths, height, width)

@@ -79,6 +79,22 @@ class MotorPlan:
 
         return PlanBatch.from_plans([self]).end_times()[0]
 
+    def with_radius(self, radius: float) -> MotorPlan:
+        """This plan lifted to 3-D (2.5D): points (m+1, 2) → (m+1, 3) with the constant
+        stroke radius ``radius`` px as third coordinate, which then moves like a 1-D
+        lognormal sub-movement (DESIGN.md § The ΣΛ model). The other tensors are shared,
+        not copied; a 3-D plan is returned unchanged. ``width`` is kept (a renderer ignores
+        it for 3-D segments)."""
+        if self.dim == 3:
+            return self
+        if not (math.isfinite(radius) and radius >= 0):
+            raise InputError(f"A stroke radius must be a non-negative number of px, got "
+                             f"{radius!r}; pass a width ≥ 0.")
+        r = torch.full((self.m + 1, 1), float(radius), dtype=self.points.dtype,
+                       device=self.points.device)  # (m+1, 1)
+        return MotorPlan(torch.cat((self.points, r), 1), self.delta_t, self.delta, self.ac,
+                         self.T, self.width)
+
     def detached(self) -> MotorPlan:
         return MotorPlan(*(getattr(self, k).detach().clone() for k in _TENSORS), self.width)
 

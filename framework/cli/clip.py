@@ -1,0 +1,69 @@
+"""``inkmotion clip``: see which CLIP weights a job would use, and fetch them once.
+
+The 'tag' and 'abstract' jobs never download anything: they use the weights in open_clip's
+own cache (``--clip-weights auto``), a checkpoint file (``--clip-weights PATH``) or, for
+tests only, random weights. ``inkmotion clip download`` is the one command that goes to the
+network, on purpose, to fill open_clip's cache. open_clip and torch load inside the commands.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from inkmotion.cli.errors import fail
+from inkmotion.errors import InkmotionError
+from inkmotion.generation.params import DEFAULT_CLIP_MODEL, DEFAULT_CLIP_PRETRAINED
+
+out = Console()
+clip_app = typer.Typer(name="clip", help="CLIP weights: check what is available, download once.",
+                       no_args_is_help=True, add_completion=False)
+
+ModelOpt = Annotated[str, typer.Option("--model", help="open_clip model name.")]
+PretrainedOpt = Annotated[str, typer.Option("--pretrained", help="open_clip pretrained tag.")]
+
+
+@clip_app.command("status")
+def status_cmd(model: ModelOpt = DEFAULT_CLIP_MODEL,
+               pretrained: PretrainedOpt = DEFAULT_CLIP_PRETRAINED,
+               weights: Annotated[str, typer.Option(
+                   "--weights", help="auto, a checkpoint file, or random.")] = "auto") -> None:
+    """Say whether a job with these CLIP settings can run offline (exit 1 when not).
+
+    Example: inkmotion clip status --model ViT-B-32 --pretrained laion2b_s34b_b79k
+    """
+    from inkmotion.clip.model import weights_problem
+
+    try:
+        problem = weights_problem(model, pretrained, weights)
+    except InkmotionError as exc:
+        fail(exc)
+    if problem is not None:
+        out.print(problem, highlight=False, soft_wrap=True)
+        raise typer.Exit(1)
+    out.print(f"{model} ({pretrained}, weights {weights}): ready, no network needed.",
+              highlight=False)
+
+
+@clip_app.command("download")
+def download_cmd(model: ModelOpt = DEFAULT_CLIP_MODEL,
+                 pretrained: PretrainedOpt = DEFAULT_CLIP_PRETRAINED) -> None:
+    """Download a model's pretrained weights into open_clip's cache (needs the network once).
+
+    Example: inkmotion clip download --model ViT-B-32 --pretrained laion2b_s34b_b79k
+    """
+    from inkmotion.clip.model import download_weights
+
+    try:
+        path = download_weights(model, pretrained)
+    except InkmotionError as exc:
+        fail(exc)
+    out.print(f"{model} ({pretrained}) weights are in {path}; jobs use them with "
+              "--clip-weights auto (the default).", highlight=False, soft_wrap=True)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``clip`` group to the ``inkmotion`` app."""
+    app.add_typer(clip_app)

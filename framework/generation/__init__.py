@@ -1,0 +1,1 @@
+"""CLIP-driven generation: the shared machinery of the 'tag' and 'abstract' job kinds."""

@@ -1,0 +1,1 @@
+"""Image inputs: reading photos (PNG/JPEG, grey, colour, alpha) into tensors."""

@@ -1,0 +1,157 @@
+"""End-to-end: the 'tag' and 'abstract' job kinds through the real command line, on a tiny
+randomly initialised CLIP model (tests/data/clip/tiny-vit.json): nothing is downloaded."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+DATA = Path(__file__).parent / "data"
+TINY = str(DATA / "clip" / "tiny-vit.json")
+COMMON = {"plan.json", "drawing.svg", "drawing.png", "overlay.png", "speed.png",
+          "trajectory.csv", "init.json", "init.png", "job.json", "report.json"}
+
+
+def inkmotion(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    full = {**os.environ, "PYTHONWARNINGS": "default", **(env or {})}
+    return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
+                          text=True, timeout=300, env=full)
+
+
+def write_photo(path: Path, size: int = 96) -> Path:
+    """A small colour photo: a bright disc and a bar on a dark gradient."""
+    import cv2
+
+    yy, xx = np.mgrid[0:size, 0:size]
+    img = np.stack([40 + 60 * xx / size, 50 + 0 * xx, 70 + 50 * yy / size], -1)
+    img[(xx - size * 0.35) ** 2 + (yy - size * 0.4) ** 2 < (size * 0.18) ** 2] = (240, 220, 80)
+    img[int(size * 0.7):int(size * 0.8), int(size * 0.2):int(size * 0.85)] = (200, 200, 230)
+    cv2.imwrite(str(path), img.astype(np.uint8))
+    return path
+
+
+@pytest.fixture(scope="module")
+def tag_dir(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("tag") / "cream"
+    res = inkmotion("run", "tag", "CREAM", "--clip-model", TINY, "--clip-weights", "random",
+                    "--steps", "12", "--size", "64", "--targets", "8", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "random" in res.stderr.lower()  # the warning is shown
+    return out
+
+
+@pytest.fixture(scope="module")
+def abstract_dir(tmp_path_factory) -> Path:
+    base = tmp_path_factory.mktemp("abstract")
+    photo = write_photo(base / "photo.png")
+    out = base / "photo"
+    res = inkmotion("run", "abstract", str(photo), "--clip-model", TINY, "--clip-weights",
+                    "random", "--steps", "8", "--size", "80", "--targets", "40",
+                    "--varying-width", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def test_tag_writes_every_artifact_and_records_random_weights(tag_dir: Path) -> None:
+    assert COMMON <= {p.name for p in tag_dir.iterdir()}
+    report = json.loads((tag_dir / "report.json").read_text())
+    job = json.loads((tag_dir / "job.json").read_text())
+    assert report["clip_weights"] == "random" and job["clip_weights"] == "random"
+    assert job["spec"]["params"]["clip_weights"] == "random"
+    assert report["caption"] == "CREAM, a stylish graffiti tag"
+    assert report["steps"] == 12 and report["paths"] == 1 and report["moves"] == 8
+    init = json.loads((tag_dir / "init.json").read_text())
+    plan = json.loads((tag_dir / "plan.json").read_text())
+    assert init["paths"][0]["delta_t"] == [1.0] * 8  # the paper's plain start, Δt = 1
+    assert plan["paths"][0]["points"] != init["paths"][0]["points"]
+
+
+def test_abstract_is_one_varying_width_path(abstract_dir: Path) -> None:
+    assert COMMON | {"saliency.png"} <= {p.name for p in abstract_dir.iterdir()}
+    plan = json.loads((abstract_dir / "plan.json").read_text())
+    assert len(plan["paths"]) == 1
+    points = np.array(plan["paths"][0]["points"])
+    assert points.shape == (40, 3)  # 40 targets of the tour, (x, y, r)
+    report = json.loads((abstract_dir / "report.json").read_text())
+    assert report["varying_width"] and report["clip_weights"] == "random"
+    assert report["canvas"] == {"width": 80, "height": 80}
+    header = (abstract_dir / "trajectory.csv").read_text().splitlines()[0]
+    assert header.split(",")[:5] == ["path", "t", "x", "y", "r"]
+
+
+def test_missing_weights_stop_before_any_work(tmp_path: Path) -> None:
+    empty = tmp_path / "cache"
+    empty.mkdir()
+    env = {"HF_HOME": str(empty), "HF_HUB_CACHE": str(empty / "hub"),
+           "XDG_CACHE_HOME": str(empty), "HF_HUB_OFFLINE": "1"}
+    out = tmp_path / "never"
+    res = inkmotion("run", "tag", "CREAM", "--out", str(out), env=env)
+    assert res.returncode != 0
+    message = res.stderr.strip()
+    assert "inkmotion clip download" in message and "--clip-weights" in message
+    assert "Traceback" not in res.stderr
+    assert not out.exists() and not list(tmp_path.glob("never*"))
+
+
+@pytest.mark.parametrize("content,why", [(b"", "empty"), (b"not an image", "not an image")])
+def test_unreadable_image_is_refused_naming_the_file(tmp_path: Path, content: bytes,
+                                                    why: str) -> None:
+    bad = tmp_path / "broken.png"
+    bad.write_bytes(content)
+    res = inkmotion("run", "abstract", str(bad), "--clip-model", TINY, "--clip-weights",
+                    "random", "--out", str(tmp_path / "out"))
+    assert res.returncode != 0
+    assert str(bad) in res.stderr and why in res.stderr and "Traceback" not in res.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_images_grey_colour_alpha_and_16_bit(tmp_path: Path) -> None:
+    import cv2
+
+    from inkmotion.images.load import load_image
+
+    grey = np.tile(np.linspace(0, 255, 50, dtype=np.uint8), (30, 1))
+    cv2.imwrite(str(tmp_path / "grey.png"), grey)
+    rgba = np.zeros((30, 50, 4), np.uint8)
+    rgba[..., 2] = 255  # red in BGRA
+    rgba[:, :25, 3] = 255  # left half opaque, right half transparent
+    cv2.imwrite(str(tmp_path / "alpha.png"), rgba)
+    cv2.imwrite(str(tmp_path / "deep.png"), (grey.astype(np.uint16) * 257))
+    cv2.imwrite(str(tmp_path / "photo.jpg"), np.dstack([grey] * 3))
+    g = load_image(tmp_path / "grey.png", 100)
+    assert g.shape == (3, 60, 100) and torch.equal(g[0], g[1])
+    a = load_image(tmp_path / "alpha.png", 50)
+    assert torch.allclose(a[:, 5, 5], torch.tensor([1.0, 0.0, 0.0]))  # opaque red
+    assert torch.allclose(a[:, 5, 45], torch.ones(3))  # transparent → white paper
+    d = load_image(tmp_path / "deep.png", 50)
+    assert torch.allclose(d, g_small := load_image(tmp_path / "grey.png", 50), atol=1e-3), \
+        g_small.shape
+    assert load_image(tmp_path / "photo.jpg", 25).shape == (3, 15, 25)
+
+
+def test_blank_image_is_refused(tmp_path: Path) -> None:
+    import cv2
+
+    from inkmotion.errors import InputError
+    from inkmotion.images.load import load_image
+
+    cv2.imwrite(str(tmp_path / "white.png"), np.full((20, 20), 255, np.uint8))
+    with pytest.raises(InputError, match="white.png: the image is blank"):
+        load_image(tmp_path / "white.png", 64)
+
+
+def test_tag_and_abstract_listed_with_their_options() -> None:
+    wide = {"COLUMNS": "250", "TERMINAL_WIDTH": "250"}
+    res = inkmotion("run", "abstract", "--help", env=wide)
+    assert res.returncode == 0
+    for flag in ("--targets", "--varying-width", "--saliency", "--clip-weights", "--loss"):
+        assert flag in res.stdout
+    res = inkmotion("run", "tag", "--help", env=wide)
+    assert "--caption" in res.stdout and "stylish graffiti tag" in res.stdout
