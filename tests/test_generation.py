@@ -155,3 +155,25 @@ def test_tag_and_abstract_listed_with_their_options() -> None:
         assert flag in res.stdout
     res = inkmotion("run", "tag", "--help", env=wide)
     assert "--caption" in res.stdout and "stylish graffiti tag" in res.stdout
+
+
+def test_a_loss_level_clip_choice_is_refused_in_favour_of_the_jobs() -> None:
+    from inkmotion.errors import SpecError
+    from inkmotion.jobs.kind import resolve
+    from inkmotion.jobs.spec import JobSpec
+
+    spec = JobSpec(kind="tag", inputs={"word": "X"},
+                   params={"losses": [{"name": "clip-text", "weights": "random"}]})
+    with pytest.raises(SpecError, match="give --clip-weights random instead"):
+        resolve(spec)
+    full = resolve(JobSpec(kind="tag", inputs={"word": "X"})).full_spec()
+    resolve(full)  # the defaults written into job.json are accepted back
+
+
+def test_clip_status_says_what_is_missing_and_what_is_ready(tmp_path: Path) -> None:
+    env = {"HF_HOME": str(tmp_path), "HF_HUB_CACHE": str(tmp_path / "hub"),
+           "XDG_CACHE_HOME": str(tmp_path)}
+    missing = inkmotion("clip", "status", env=env)
+    assert missing.returncode == 1 and "inkmotion clip download" in missing.stdout
+    ready = inkmotion("clip", "status", "--model", TINY, "--weights", "random", env=env)
+    assert ready.returncode == 0 and "ready" in ready.stdout

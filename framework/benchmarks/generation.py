@@ -55,7 +55,8 @@ def bench_generation(steps: int = 10, device: str = "cpu") -> dict[str, float | 
         abstract_s, abstract_report = _s_per_step(abstract, folder)
     return {
         "tag_s_per_step": tag_s,
-        "tag_300_steps_s": 300 * tag_s,
+        # the 30-s goal is for a CUDA GPU: the CPU figure carries no target
+        ("tag_300_steps_s" if device != "cpu" else "tag_300_steps_cpu_s"): 300 * tag_s,
         "tag_moves": tag_report["moves"],
         "abstract_s_per_step": abstract_s,
         "abstract_moves": abstract_report["moves"],

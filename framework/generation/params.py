@@ -10,12 +10,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from inkmotion.clip.weights import DEFAULT_MODEL as DEFAULT_CLIP_MODEL
+from inkmotion.clip.weights import DEFAULT_PRETRAINED as DEFAULT_CLIP_PRETRAINED
 from inkmotion.errors import SpecError
 from inkmotion.jobs.params import PluginChoice, param, plugin_param
-
-#: open_clip's names for the default model and its pretrained tag (ViT-B-32, LAION-2B)
-DEFAULT_CLIP_MODEL = "ViT-B-32"
-DEFAULT_CLIP_PRETRAINED = "laion2b_s34b_b79k"
 
 
 @dataclass
@@ -64,3 +62,23 @@ class GenerationParams:
                             f"{self.radius_max}; swap them.")
         if not self.clip_weights.strip():
             raise SpecError("--clip-weights is empty; give auto, a checkpoint file or random.")
+        check_one_clip(self)
+
+
+#: a CLIP loss's own model options (used when it runs outside a generation job) and their
+#: defaults; inside a tag or abstract job the job's --clip-* parameters choose the model
+_LOSS_CLIP_OPTIONS = {"model": DEFAULT_CLIP_MODEL, "pretrained": DEFAULT_CLIP_PRETRAINED,
+                      "weights": "auto"}
+
+
+def check_one_clip(params: GenerationParams) -> None:
+    """Refuse a loss-level CLIP choice (e.g. --clip-text-weights) that differs from its
+    default: a generation job loads one CLIP model for all its plugins, chosen by
+    --clip-model, --clip-pretrained and --clip-weights."""
+    for choice in getattr(params, "losses", []) or []:
+        for key, default in _LOSS_CLIP_OPTIONS.items():
+            value = choice.options.get(key, default)
+            if value != default:
+                raise SpecError(f"--{choice.name}-{key} {value} is not used by this job, which "
+                                f"loads one CLIP model for all its plugins; give --clip-{key} "
+                                f"{value} instead.")
