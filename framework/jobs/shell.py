@@ -83,6 +83,14 @@ class Job:
         """That plugin's options from the spec, as keyword arguments."""
         return options_dict(self.resolved.options_of(choice))
 
+    def recording_stream(self) -> Any:
+        """The job's open rerun RecordingStream when it is recorded, else None."""
+        for o in self.observers.observers:
+            stream = getattr(o, "stream", None)
+            if stream is not None:
+                return stream
+        return None
+
     def start(self, canvas: tuple[int, int] = (0, 0), target: Any = None,
               traces: list | None = None) -> None:
         """Tell the observers the job has started (call before the first step)."""

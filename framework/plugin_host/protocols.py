@@ -8,6 +8,7 @@ at start-up with a sentence naming it, not in the middle of a job.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
@@ -107,8 +108,11 @@ class Saliency(Plugin, Protocol):
 
 
 class RobotBackend(Plugin, Protocol):
-    def __call__(self, plan: Any, **options: Any) -> Any:
-        """Execute or export a timed Cartesian plan."""
+    def execute(self, program: Any, folder: Path, **options: Any) -> dict:
+        """Execute or export ``program`` (a :class:`inkmotion.robot.types.RobotProgram`:
+        setup, timed pen-tip path, joint trajectory), writing its files into ``folder``;
+        return the figures for report.json. Optional: ``replay(program, result, stream)``
+        logging the execution into the job's rerun recording."""
 
 
 #: plugin kind -> (protocol, the attributes and methods an object must have)
@@ -119,7 +123,7 @@ REQUIRED: dict[str, tuple[str, ...]] = {
     "image-loss": ("prepare",),
     "renderer": ("__call__",),
     "saliency": ("__call__",),
-    "robot-backend": ("__call__",),
+    "robot-backend": ("execute",),
 }
 
 
@@ -134,7 +138,7 @@ def check_plugin_object(kind: str, obj: Any) -> str | None:
     if missing:
         return f"the {kind} plugin {name!r} lacks {', '.join(missing)}"
     not_callable = [a for a in REQUIRED.get(kind, ())
-                    if a in ("__call__", "can_read", "read", "prepare", "steps", "run")
+                    if a in ("__call__", "can_read", "read", "prepare", "steps", "run", "execute")
                     and not callable(getattr(obj, a, None) if a != "__call__" else obj)]
     if not_callable:
         return f"the {kind} plugin {name!r}: {', '.join(not_callable)} must be callable"

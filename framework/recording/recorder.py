@@ -130,6 +130,13 @@ class RerunRecorder:
         self._scalars: dict[str, tuple[list[int], list[float]]] = {}  # entity -> steps, values
         self._geometry: list[_StepGeometry] = []
 
+    @property
+    def stream(self) -> Any:
+        """The open rerun RecordingStream (None before ``on_start`` or after ``close``):
+        a job kind may log its own entities into the same recording (e.g. a simulation's
+        replay on a time timeline)."""
+        return self._rec
+
     # -- what the runner should build -----------------------------------------------------
     def _every(self, k: int, step: int) -> bool:
         return k > 0 and (step % k == 0 or step == 1 or step == self._total)
