@@ -67,6 +67,7 @@ def test_tracking_limits_and_coverage(simulated: Path) -> None:
     assert joints["min_joint_margin"] > 0
     assert max(joints["max_velocity_ratio"]) < 1 and max(joints["max_acceleration_ratio"]) < 1
     assert sim["commanded_joint_velocity_min_margin"] > 0
+    assert sim["executed_joint_velocity_min_margin"] > 0
     assert sim["contact_coverage"] > 0.95 and sim["spurious_contact"] < 0.05
     assert report["timing"]["peak_speed"] <= 0.25 * 1.001
     assert report["setup"]["v_max"] == 0.25

@@ -66,7 +66,8 @@ def execute_franka_sim(program: RobotProgram, folder: Path, replay_rate: float =
     width_px = 3.0
     drawing = program.drawing
     if drawing is not None:
-        width_px = float(np.mean([p.width for p in drawing.plans]))
+        # OpenCV's anti-aliased lines of thickness t cover about t + 1 px
+        width_px = max(1.0, float(np.mean([p.width for p in drawing.plans])) - 1.0)
         render_plan_png(folder / "plan_drawing.png", drawing, program.canvas)
     write_sim_drawing(folder / "sim_drawing.png", sim.contact_strokes(), plane.origin,
                       plane.rotation, tuple(setup.paper), canvas,

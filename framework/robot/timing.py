@@ -31,7 +31,8 @@ first window and 0.39 s after its last (plan time), where the pen creeps over th
 plan timing, at most ``MAX_DOT_S`` per dot, and reports ``limiting = "none"``.
 
 Transfers. Between strokes the pen lifts along the normal to ``pen_up``, moves in a straight
-line above the next stroke's start and lowers onto it; the program starts and ends at
+line above the next stroke's start, lowers to ``TOUCH_GAP`` above the paper and lands at
+``TOUCH_SPEED`` at most; the program starts and ends at
 ``start``. Each of these moves is a minimum-jerk (quintic) rest-to-rest profile
 s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, whose peaks are |ṡ| = 15/8 at τ = ½ and |s̈| = 10/√3 at
 τ = (3 − √3)/6, so a move of length L lasts T = max(15/8·L/v_max, sqrt(10/√3·L/a_max)),
@@ -61,6 +62,11 @@ GRID_POINTS = 401
 #: minimum-jerk peak factors: |ṡ| ≤ 15/8, |s̈| ≤ 10/√3 for s(τ) = 10τ³ − 15τ⁴ + 6τ⁵
 QUINTIC_SPEED = 15.0 / 8.0
 QUINTIC_ACCELERATION = 10.0 / math.sqrt(3.0)
+#: the pen lowers fast to TOUCH_GAP (m) above the paper, then lands at most at TOUCH_SPEED
+#: (m/s): landing at transfer speed jolts the arm (measured in MuJoCo on 49867.json: joint 2
+#: at 1.45× its acceleration limit for a few ms at each landing)
+TOUCH_GAP = 0.002
+TOUCH_SPEED = 0.02
 #: a drawing that does not move (dots only) keeps its plan timing, at most this long per dot
 MAX_DOT_S = 1.0
 #: the default start: this far (m) above the pen-up height over the first stroke's start
@@ -195,22 +201,25 @@ def time_drawing(drawing: Drawing, setup: RobotSetup, start: np.ndarray | None =
     def move(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return rest_to_rest(a, b, setup.v_max, setup.a_max, rate)
 
+    def touch_down(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return rest_to_rest(a, b, min(TOUCH_SPEED, setup.v_max), setup.a_max, rate)
+
     segments: list[tuple[np.ndarray, int]] = []  # (positions, stroke index or −1)
     here = start
     for i, (draw, (over_start, over_end)) in enumerate(zip(draws, above, strict=True)):
-        segments += [(move(here, over_start), -1), (move(over_start, draw[0]), -1),
-                     (draw, i), (move(draw[-1], over_end), -1)]
+        hover = to_base(sampled[i][0][[0], :2], TOUCH_GAP)[0]
+        segments += [(move(here, over_start), -1), (move(over_start, hover), -1),
+                     (touch_down(hover, draw[0]), -1), (draw, i),
+                     (move(draw[-1], over_end), -1)]
         here = over_end
     segments.append((move(here, start), -1))
 
-    positions, stroke_of = [segments[0][0]], [np.full(len(segments[0][0]), segments[0][1])]
-    for points, index in segments[1:]:
-        if index >= 0:  # the junction sample touches the paper: it belongs to the stroke
-            stroke_of[-1][-1] = index
-        positions.append(points[1:])
-        stroke_of.append(np.full(len(points) - 1, index))
-    position = np.concatenate(positions)
-    stroke = np.concatenate(stroke_of).astype(int)
+    # each segment starts where the previous one ends: keep that sample once
+    position = np.concatenate([start[None]] + [points[1:] for points, _ in segments])
+    stroke = np.concatenate([[-1]] + [np.full(len(points) - 1, index)
+                                      for points, index in segments]).astype(int)
+    for i in range(len(draws)):  # a stroke's first sample, on the paper, belongs to it
+        stroke[np.flatnonzero(stroke == i)[0] - 1] = i
     n = len(position)
     drawing_s = sum(len(d) - 1 for d in draws) / rate
     transfer_peaks = [_move_peaks(p, rate) for p, i in segments if i < 0]
