@@ -1,0 +1,53 @@
+"""``inkmotion evaluate PLAN.json --out DIR``: the 'evaluate' job kind as a top-level
+command (the same as ``inkmotion run evaluate``), ΣΛ against minimum-jerk and time-optimal
+timings of the same path. Nothing heavy is imported until the command runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from inkmotion.cli.run import OutOpt, RecordOpt
+
+
+def evaluate_cmd(
+    plan: Annotated[str, typer.Argument(help="A plan.json (fit, tag or abstract job).")],
+    out_dir: OutOpt = None,
+    vmax: Annotated[float, typer.Option("--vmax", help="Pen speed limit, m/s.")] = 0.25,
+    amax: Annotated[float, typer.Option("--amax", help="Pen acceleration limit, m/s².")] = 2.5,
+    path: Annotated[int, typer.Option(help="Path of the plan (-1: the longest).")] = -1,
+    rate: Annotated[float, typer.Option(help="Sampling rate, Hz.")] = 1000.0,
+    setup: Annotated[Optional[Path], typer.Option(  # noqa: UP045
+        help="Robot setup TOML whose paper maps px to metres.")] = None,
+    recording: Annotated[Optional[Path], typer.Option(  # noqa: UP045
+        help="The GML/JSON the plan was fitted to (its time stamps: human agreement).")
+    ] = None,
+    record: RecordOpt = False,
+) -> None:
+    """Compare ΣΛ with path-constrained minimum jerk and time-optimal (TOPP-RA) timings.
+
+    Writes evaluation.json / .csv (duration, MSJ, LDJ per method and the ratios method/ΣΛ,
+    > 1: ΣΛ better), speeds.png and minima.png.
+
+    Examples:
+
+      inkmotion evaluate results/49867/plan.json --out results/49867-eval
+
+      inkmotion evaluate plan.json --vmax 0.5 --amax 5 --out r/eval
+
+      inkmotion evaluate plan.json --recording ../shared/data/gml/49867.json --out r/eval
+    """
+    from inkmotion.cli.run import _run_kind
+
+    values = {"out_dir": out_dir, "record": record, "config": None, "v_max": vmax,
+              "a_max": amax, "path": path, "rate": rate,
+              "setup": str(setup) if setup else None,
+              "recording": str(recording) if recording else None}
+    _run_kind("evaluate", [plan], values)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``evaluate`` to the ``inkmotion`` app."""
+    app.command("evaluate")(evaluate_cmd)

@@ -1,0 +1,476 @@
+"""The quality benchmark: fit every input with the default settings and measure how good the
+fits are, per item and over the set (``inkmotion benchmark``).
+
+It answers "did this change make fitting better?": run it before and after on the same
+inputs and compare ``summary.json``. Per item it reports
+
+- ``moves`` m (sub-movements over all paths), the Chamfer distance between the input
+  polylines and the fitted trajectory (mean and max, px), from the fit's report;
+- ``iou``: intersection over union of the rendered fit and the rendered target, both drawn
+  by the 'raster' renderer at the fit's canvas and stroke width and thresholded at a
+  coverage of 0.5 (|A ∩ B| / |A ∪ B|);
+- ``t_end_ratio`` (T_end after / before the fit: the minimum-time reduction) and
+  ``delta_t_at_clamp``, the share of overlaps Δt_i (i ≥ 2; Δt_1 is unused) within 1e-6
+  of a bound of :data:`~inkmotion.sigma_lognormal.params.DELTA_T_RANGE` — a high share
+  means the smoothing cost pins the plan, which then stops being a model of movement;
+- ``steps``, ``fit_s`` (the optimiser) and ``wall_s`` (the whole job);
+- whatever :func:`extra_figures` returns (speed peaks against the recording, evaluation
+  ratios) once :mod:`inkmotion.evaluation.summary` exists.
+
+Items run in worker processes ('spawn': torch and fork do not mix), each with
+max(1, cores // jobs) torch threads (capped like a single job's default). A failing item
+becomes a row holding its one-sentence error; the others go on. Nothing heavy is imported
+at module level, so the command line can import this module cheaply.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import re
+import statistics
+import time
+from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+from inkmotion.errors import InkmotionError, InputError, SpecError
+
+#: extensions of the drawings a folder input expands to
+DRAWING_SUFFIXES = (".json", ".gml", ".svg")
+#: coverage above which a pixel counts as ink for the IoU
+INK_THRESHOLD = 0.5
+#: |Δt − bound| below which an overlap counts as clamped
+CLAMP_TOLERANCE = 1e-6
+#: the per-item figures the benchmark itself measures: key, column label, unit, meaning
+COLUMNS: tuple[tuple[str, str, str, str], ...] = (
+    ("moves", "m", "", "sub-movements over all paths"),
+    ("chamfer_mean_px", "Chamfer mean", "px", "input polylines vs fitted trajectory"),
+    ("chamfer_max_px", "Chamfer max", "px", "input polylines vs fitted trajectory"),
+    ("iou", "IoU", "", "rendered fit vs rendered target, coverage > 0.5"),
+    ("t_end_ratio", "T_end ratio", "", "T_end after / before the fit"),
+    ("delta_t_at_clamp", "Δt at clamp", "share", "Δt_i (i ≥ 2) within 1e-6 of 0.1 or 0.9"),
+    ("steps", "steps", "", "Adam steps"),
+    ("fit_s", "fit", "s", "optimiser wall time"),
+    ("wall_s", "wall", "s", "the whole job's wall time"),
+)
+SUMMARY_FILES = ("summary.json", "summary.csv", "summary.md", "summary.html")
+
+
+# ----------------------------------------------------------------------------- inputs
+
+
+def expand_inputs(inputs: Iterable[str]) -> list[str]:
+    """Inputs as single sources: a folder becomes its *.json/*.gml/*.svg files (sorted);
+    files and ``scheme:value`` strings pass through (a missing file fails in its own row)."""
+    sources: list[str] = []
+    for item in inputs:
+        p = Path(item)
+        if p.is_dir():
+            found = sorted(str(f) for f in p.iterdir()
+                           if f.is_file() and f.suffix.lower() in DRAWING_SUFFIXES)
+            if not found:
+                raise InputError(f"{item}: the folder holds no {'/'.join(DRAWING_SUFFIXES)} "
+                                 "file; give drawings or a folder of them.")
+            sources.extend(found)
+        else:
+            sources.append(item)
+    if not sources:
+        raise SpecError("The benchmark needs at least one input (a drawing, a folder of "
+                        "drawings or text:WORD).")
+    return sources
+
+
+def item_names(sources: list[str]) -> list[str]:
+    """A distinct, file-system-safe folder name per source (``text:hello`` -> text-hello,
+    ``tags/49867.json`` -> 49867; repeats get -2, -3, ...)."""
+    from inkmotion.geometry.read import is_scheme
+
+    names: list[str] = []
+    seen: dict[str, int] = {}
+    for s in sources:
+        base = s.replace(":", "-", 1) if is_scheme(s) else (Path(s).stem or "item")
+        base = re.sub(r"[^A-Za-z0-9._-]+", "_", base).strip("._") or "item"
+        n = seen.get(base, 0) + 1
+        seen[base] = n
+        names.append(base if n == 1 else f"{base}-{n}")
+    return names
+
+
+def parse_param(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` -> (KEY, VALUE as JSON, else the string); KEY may be ``PLUGIN.OPTION``
+    (e.g. ``initialiser.threshold=20``)."""
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise SpecError(f"--param {text!r} must read KEY=VALUE, e.g. --param lambda_smooth=40.")
+    try:
+        value = json.loads(raw)
+    except json.JSONDecodeError:
+        value = raw
+    return key, value
+
+
+def fit_params(steps: int | None, size: int | None, params: dict[str, Any] | None) -> dict:
+    """The fit's ``params`` (JSON) from the options: the defaults unless given. A dotted key
+    ``PLUGIN_PARAM.OPTION`` sets an option of the plugin that parameter chooses (its
+    default plugin unless the same call names another)."""
+    from inkmotion.jobs.params import describe
+    from inkmotion.plugins.fit import FitParams
+
+    out: dict[str, Any] = {}
+    for key, value in (params or {}).items():
+        if "." not in key:
+            out[key] = value
+    infos = {i.name: i for i in describe(FitParams)}
+    for key, value in (params or {}).items():
+        if "." not in key:
+            continue
+        head, _, option = key.partition(".")
+        info = infos.get(head)
+        if info is None or info.plugin_kind is None or info.many:
+            raise SpecError(f"--param {key}: {head!r} is not a fit parameter that chooses one "
+                            "plugin (e.g. initialiser.threshold=20).")
+        current = out.get(head, info.default.to_dict() if info.default is not None else None)
+        current = {"name": current} if isinstance(current, str) else dict(current or {})
+        if "name" not in current:
+            raise SpecError(f"--param {key}: name the {info.plugin_kind} first, e.g. "
+                            f"--param {head}=NAME.")
+        current[option] = value
+        out[head] = current
+    if steps is not None:
+        out["steps"] = steps
+    if size is not None:
+        out["size"] = size
+    return out
+
+
+def default_jobs(n_items: int) -> int:
+    """min(cores, items, 4)."""
+    return max(1, min(_cores(), n_items, 4))
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def worker_threads(jobs: int) -> int:
+    """torch threads per worker: max(1, cores // jobs), capped at a single job's default
+    (more threads make these small ops slower, see :mod:`inkmotion.devices`)."""
+    from inkmotion.devices import MAX_DEFAULT_THREADS
+
+    return max(1, min(MAX_DEFAULT_THREADS, _cores() // jobs))
+
+
+# ----------------------------------------------------------------------------- one item
+
+
+def quality_figures(item_dir: Path) -> dict[str, float]:
+    """IoU of the rendered fit against the rendered target, and the share of Δt_i (i ≥ 2)
+    at a clamp bound, from a fit's input.json and plan.json (see the module docstring)."""
+    import numpy as np
+    import torch
+
+    import inkmotion
+    from inkmotion.geometry.traces import Traces
+    from inkmotion.json_files import read_json
+    from inkmotion.plugins.fit import traces_to_segments
+    from inkmotion.sigma_lognormal import Drawing
+    from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
+
+    source = read_json(item_dir / "input.json", InputError, "input file")
+    width, height = int(source["canvas"]["width"]), int(source["canvas"]["height"])
+    drawing = Drawing.load(item_dir / "plan.json")
+    render = inkmotion.plugin("renderer", "raster")
+    stroke = drawing.plans[0].width
+    with torch.no_grad():
+        traces = Traces([np.asarray(s, dtype=np.float64) for s in source["traces"]])
+        target_segments = traces_to_segments(traces, torch.float32, "cpu")
+        target = render(target_segments, torch.full((len(target_segments),), stroke),
+                        height, width)  # (H, W)
+        fitted = torch.zeros_like(target)
+        for plan in drawing.plans:
+            segments = inkmotion.bezier_segments(plan).detach()
+            image = render(segments, torch.full((len(segments),), plan.width), height, width)
+            fitted = torch.maximum(fitted, image)
+    a, b = fitted > INK_THRESHOLD, target > INK_THRESHOLD
+    union = int((a | b).sum())
+    iou = float((a & b).sum()) / union if union else float("nan")
+    lo, hi = DELTA_T_RANGE
+    overlaps = torch.cat([p.delta_t[1:] for p in drawing.plans])  # Δt_1 is unused
+    clamped = (((overlaps - lo).abs() <= CLAMP_TOLERANCE)
+               | ((overlaps - hi).abs() <= CLAMP_TOLERANCE))
+    share = int(clamped.sum()) / len(overlaps) if len(overlaps) else 0.0
+    return {"iou": iou, "delta_t_at_clamp": share}
+
+
+def extra_figures(item_dir: Path, source: str) -> dict[str, Any]:
+    """Optional figures of another module (speed peaks against the recording, evaluation
+    ratios): ``inkmotion.evaluation.summary.item_figures(item_dir, source)`` when that
+    module exists, else {}."""
+    try:
+        from inkmotion.evaluation.summary import item_figures  # type: ignore[import-not-found]
+    except ImportError:
+        return {}
+    return dict(item_figures(item_dir, source))
+
+
+def _flatten(figures: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """{"a": {"b": 1}} -> {"a.b": 1}: nested figures become columns."""
+    out: dict[str, Any] = {}
+    for k, v in figures.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def run_item(source: str, folder: str, spec: dict[str, Any]) -> dict[str, Any]:
+    """Fit ``source`` into ``folder`` and measure it; never raises: a failure is a row with
+    ``status: "failed"`` and its one-sentence ``error``. (Runs in a worker process.)"""
+    from inkmotion.jobs.shell import run_job
+    from inkmotion.jobs.spec import JobSpec
+
+    row: dict[str, Any] = {"item": Path(folder).name, "source": source, "status": "ok"}
+    started = time.perf_counter()
+    try:
+        job = JobSpec.from_dict({**spec, "inputs": {"drawing": source}})
+        report = run_job(job, folder)
+        for key in ("moves", "chamfer_mean_px", "chamfer_max_px", "t_end_ratio", "steps",
+                    "fit_s", "wall_s"):
+            row[key] = report.get(key)
+        row.update(quality_figures(Path(folder)))
+    except InkmotionError as exc:
+        return {**row, "status": "failed", "error": str(exc),
+                "wall_s": round(time.perf_counter() - started, 3)}
+    except Exception as exc:  # a bug, not the user's input: still one row, named as such
+        return {**row, "status": "failed",
+                "error": f"internal error ({type(exc).__name__}: {exc}); please report it.",
+                "wall_s": round(time.perf_counter() - started, 3)}
+    try:
+        row.update(_flatten(extra_figures(Path(folder), source)))
+    except Exception as exc:  # the fit stands; the optional figures are missing
+        row["extra_error"] = f"{type(exc).__name__}: {exc}"
+    return row
+
+
+def _init_worker(threads: int) -> None:
+    """Worker start-up: the job shell reads its torch thread count from INKMOTION_THREADS."""
+    os.environ["INKMOTION_THREADS"] = str(threads)
+
+
+# ----------------------------------------------------------------------------- the run
+
+
+def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
+                  steps: int | None = None, size: int | None = None,
+                  params: dict[str, Any] | None = None, console: Any = None,
+                  device: str = "cpu", seed: int = 0) -> dict:
+    """Fit every input into ``out/<item>/`` and write summary.{json,csv,md,html} in ``out``;
+    print the aggregate table on ``console`` (a rich Console; None: stdout). Returns the
+    summary (``items``, ``aggregate``, ``columns``, ``settings``).
+
+    Raises :class:`~inkmotion.errors.InkmotionError` for a bad call (no inputs, an empty
+    folder, an invalid parameter) before anything runs; a failing item is a row instead.
+    """
+    from rich.console import Console
+
+    from inkmotion.jobs.kind import resolve
+    from inkmotion.jobs.spec import JobSpec
+
+    console = console or Console()
+    sources = expand_inputs(inputs)
+    names = item_names(sources)
+    spec = JobSpec(kind="fit", inputs={"drawing": sources[0]},
+                   params=fit_params(steps, size, params), seed=seed, device=device,
+                   record_every=0)
+    resolve(spec)  # a bad parameter fails once, here, rather than in every row
+    jobs = default_jobs(len(sources)) if jobs is None else jobs
+    if jobs < 1:
+        raise SpecError(f"--jobs {jobs} must be at least 1.")
+    jobs = min(jobs, len(sources))
+    threads = worker_threads(jobs)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    tasks = [(s, str(out / n), spec.to_dict()) for s, n in zip(sources, names, strict=True)]
+    rows = _run_all(tasks, jobs, threads, console)
+    summary = summarise(rows, wall_s=time.perf_counter() - started)
+    summary["settings"] = {"inputs": list(inputs), "jobs": jobs, "threads_per_job": threads,
+                           "spec": spec.to_dict() | {"inputs": {}}}
+    write_summary(out, summary)
+    print_aggregate(summary, console)
+    return summary
+
+
+def _run_all(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
+             console: Any) -> list[dict[str, Any]]:
+    """Run the items (in ``jobs`` spawned workers, or here when jobs == 1) with a progress
+    bar; rows in the order of ``tasks``."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    rows: list[dict[str, Any] | None] = [None] * len(tasks)
+    columns = (TextColumn("benchmark"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+               TextColumn("{task.description}"))
+    with Progress(*columns, console=console, transient=False) as progress:
+        bar = progress.add_task("", total=len(tasks))
+
+        def done(i: int, row: dict[str, Any]) -> None:
+            rows[i] = row
+            mark = "ok" if row["status"] == "ok" else "FAILED"
+            progress.update(bar, advance=1, description=f"{tasks[i][0]}: {mark}")
+
+        if jobs == 1:
+            for i, task in enumerate(tasks):
+                done(i, run_item(*task))
+        else:
+            _run_parallel(tasks, jobs, threads, done)
+    assert all(r is not None for r in rows)
+    return rows  # type: ignore[return-value]
+
+
+def _run_parallel(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
+                  done: Callable[[int, dict[str, Any]], None]) -> None:
+    import multiprocessing
+    from concurrent.futures.process import BrokenProcessPool
+
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_init_worker,
+                             initargs=(threads,)) as pool:
+        futures = {pool.submit(run_item, *task): i for i, task in enumerate(tasks)}
+        for future in as_completed(futures):
+            i = futures[future]
+            try:
+                row = future.result()
+            except BrokenProcessPool:
+                row = {"item": Path(tasks[i][1]).name, "source": tasks[i][0], "status": "failed",
+                       "error": "its worker process died (out of memory or killed); run "
+                                "it alone with --jobs 1 to see why."}
+            done(i, row)
+
+
+# ----------------------------------------------------------------------------- summary
+
+
+def numeric_keys(rows: list[dict[str, Any]]) -> list[str]:
+    """The figure columns: the benchmark's own, then the extra ones in order of appearance."""
+    own = [k for k, _, _, _ in COLUMNS]
+    extra: list[str] = []
+    for row in rows:
+        for k, v in row.items():
+            if k not in own and k not in extra and _is_number(v):
+                extra.append(k)
+    return own + extra
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def aggregate(rows: list[dict[str, Any]], keys: list[str]) -> dict[str, dict[str, float]]:
+    """Per column over the succeeded items with a finite value: n, mean, median, min, max."""
+    out: dict[str, dict[str, float]] = {}
+    for key in keys:
+        values = [float(r[key]) for r in rows if r.get("status") == "ok"
+                  and _is_number(r.get(key)) and math.isfinite(r[key])]
+        if values:
+            out[key] = {"n": len(values), "mean": statistics.fmean(values),
+                        "median": statistics.median(values), "min": min(values),
+                        "max": max(values)}
+    return out
+
+
+def summarise(rows: list[dict[str, Any]], wall_s: float) -> dict:
+    """The summary: items, columns (key, label, unit), aggregate and totals."""
+    keys = numeric_keys(rows)
+    known = {k: {"key": k, "label": label, "unit": unit, "meaning": meaning}
+             for k, label, unit, meaning in COLUMNS}
+    columns = [known.get(k, {"key": k, "label": k, "unit": "", "meaning": "extra figure"})
+               for k in keys]
+    failed = [r for r in rows if r["status"] != "ok"]
+    totals = {"items": len(rows), "succeeded": len(rows) - len(failed), "failed": len(failed),
+              "wall_s": round(wall_s, 3),
+              "item_wall_s": round(sum(r.get("wall_s") or 0.0 for r in rows), 3)}
+    return {"version": 1, "columns": columns, "aggregate": aggregate(rows, keys),
+            "totals": totals, "items": rows}
+
+
+def write_summary(out: Path, summary: dict) -> None:
+    """summary.json, summary.csv, summary.md and summary.html in ``out``."""
+    from inkmotion.evaluation.report_html import write_html, write_markdown
+
+    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=_json_default))
+    write_csv(out / "summary.csv", summary)
+    write_markdown(out / "summary.md", summary)
+    write_html(out / "summary.html", summary)
+
+
+def _json_default(value: Any) -> Any:
+    return str(value)
+
+
+def write_csv(path: Path, summary: dict) -> None:
+    """One row per item: item, source, status, the figure columns, error."""
+    keys = [c["key"] for c in summary["columns"]]
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["item", "source", "status", *keys, "error"])
+        for row in summary["items"]:
+            writer.writerow([row.get("item"), row["source"], row["status"],
+                             *(_csv_value(row.get(k)) for k in keys), row.get("error", "")])
+
+
+def _csv_value(value: Any) -> Any:
+    return "" if value is None else value
+
+
+def format_value(value: Any) -> str:
+    """A figure for a table: integers as is, floats with 3 significant digits."""
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.3g}" if math.isfinite(value) else str(value)
+    return str(value)
+
+
+def aggregate_rows(summary: dict, meaning: bool = False) -> list[list[str]]:
+    """The aggregate table as text: column label, unit, mean, median, max, n (and what the
+    figure means, with ``meaning``)."""
+    rows = []
+    for c in summary["columns"]:
+        a = summary["aggregate"].get(c["key"])
+        if a is None:
+            continue
+        rows.append([c["label"], c["unit"], format_value(a["mean"]), format_value(a["median"]),
+                     format_value(a["max"]), str(a["n"])] + ([c["meaning"]] if meaning else []))
+    return rows
+
+
+AGGREGATE_HEADER = ("figure", "unit", "mean", "median", "max", "n")
+
+
+def totals_line(summary: dict) -> str:
+    t = summary["totals"]
+    return (f"{t['items']} items, {t['succeeded']} succeeded, {t['failed']} failed; "
+            f"wall {t['wall_s']:.1f} s (items together {t['item_wall_s']:.1f} s)")
+
+
+def print_aggregate(summary: dict, console: Any) -> None:
+    """The aggregate table, the totals and each failure's error on ``console``."""
+    from rich.table import Table
+
+    table = Table(*AGGREGATE_HEADER, title="quality benchmark (succeeded items)")
+    for row in aggregate_rows(summary):
+        table.add_row(*row)
+    console.print(table)
+    console.print(totals_line(summary), highlight=False)
+    for row in summary["items"]:
+        if row["status"] != "ok":
+            console.print(f"[red]failed[/] {row['item']}: {row['error']}", highlight=False)

@@ -1,0 +1,149 @@
+"""The 'evaluate' job kind's work (paper, section "Evaluation"): three timings of one path
+of a plan under the same limits, their metrics, the ratios method/ΣΛ, and the plots.
+
+Units: the plan is in canvas px; the limits are the robot's (m/s, m/s²). The canvas is put
+on the setup's paper (:class:`inkmotion.robot.calibration.PaperMapping`, scale s m/px), so
+the timings run in px with v_max/s and a_max/s², and every metric is reported in metres.
+
+Ratios (> 1 means ΣΛ is better, as in the paper's table): duration T_m / T_ΣΛ (the ratio of
+inverse durations ΣΛ over method), MSJ_m / MSJ_ΣΛ (lower MSJ is smoother), LDJ_m / LDJ_ΣΛ
+(LDJ is negative and nearer 0 when smoother, so a less smooth method has the larger
+magnitude).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from inkmotion.errors import InputError
+from inkmotion.events import StepState
+
+if TYPE_CHECKING:
+    from inkmotion.jobs.shell import Job
+
+#: the methods, in the table's order
+METHODS = ("sigma-lognormal", "minimum-jerk", "time-optimal")
+#: per metric: the paper's finding for each alternative, as "ratio > 1" (ΣΛ better) or not
+PAPER_DIRECTION = {
+    ("minimum-jerk", "duration"): None,  # not stated by the paper
+    ("minimum-jerk", "msj"): False,  # minimum jerk smoother on MSJ
+    ("minimum-jerk", "ldj"): True,  # ΣΛ smoother on LDJ
+    ("time-optimal", "duration"): False,  # TOTG faster
+    ("time-optimal", "msj"): True,  # ΣΛ smoother on both measures
+    ("time-optimal", "ldj"): True,
+}
+
+
+def choose_path(drawing: Any, index: int) -> int:
+    """The path to evaluate: ``index``, or the longest (by sampled arc length) for −1."""
+    from inkmotion.outputs.sampling import sample
+
+    n = len(drawing.plans)
+    if index >= n:
+        raise InputError(f"The plan has {n} paths (0..{n - 1}); there is no path {index}.")
+    if index >= 0:
+        return index
+    lengths = [float(np.linalg.norm(np.diff(sample(p).positions[:, :2], axis=0),
+                                    axis=1).sum()) for p in drawing.plans]
+    return int(np.argmax(lengths))
+
+
+def run_evaluate(job: Job) -> dict[str, Any]:
+    """Time, measure, compare and plot one path of the job's plan."""
+    from inkmotion.evaluation import metrics as M
+    from inkmotion.evaluation.minjerk import minimum_jerk_timing
+    from inkmotion.evaluation.time_optimal import time_optimal_timing
+    from inkmotion.evaluation.timings import sigma_lognormal_timing
+    from inkmotion.robot.calibration import PaperMapping
+    from inkmotion.robot.setup import load_setup
+    from inkmotion.sigma_lognormal import Drawing
+
+    p = job.params
+    drawing = Drawing.load(job.spec.inputs["plan"])
+    setup = load_setup(p.setup or None)
+    scale = PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin).scale
+    index = choose_path(drawing, p.path)
+    plan = drawing.plans[index]
+    v_px, a_px = p.v_max / scale, p.a_max / scale
+    job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
+
+    sigma = sigma_lognormal_timing(plan, v_px, a_px, p.rate)
+    job.observers.on_step(StepState(1, 3, {}, 0.0))
+    minjerk = minimum_jerk_timing(sigma.position, v_px, a_px, p.rate)
+    job.observers.on_step(StepState(2, 3, {}, 0.0))
+    optimal = time_optimal_timing(sigma.position, v_px, a_px, p.rate)
+    job.observers.on_step(StepState(3, 3, {}, 0.0))
+
+    timed = dict(zip(METHODS, (sigma, minjerk, optimal), strict=True))
+    table = {name: method_figures(path, scale, p.rate) for name, path in timed.items()}
+    ratios = {name: {k: table[name][k] / table[METHODS[0]][k]
+                     for k in ("duration", "msj", "ldj")} for name in METHODS[1:]}
+    holds = {f"{m}/{k}": (None if want is None else bool((ratios[m][k] > 1) == want))
+             for (m, k), want in PAPER_DIRECTION.items()}
+    minima = M.speed_minima_at_curvature_maxima(sigma.position * scale, 1.0 / p.rate)
+    doc = {"path": index, "moves": plan.m, "v_max": p.v_max, "a_max": p.a_max,
+           "m_per_px": scale, "methods": table, "ratios": ratios, "paper_direction_holds":
+           holds, "speed_minima_at_curvature_maxima": minima,
+           "method_notes": {"time-optimal": "TOPP-RA (toppra), standing in for TOTG"}}
+    if p.recording:
+        doc["human"] = human_figures(p.recording, drawing, job.folder)
+    (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
+    write_csv(job.folder / "evaluation.csv", table, ratios)
+    from inkmotion.evaluation.plots import plot_minima, plot_speeds
+
+    plot_speeds(job.folder / "speeds.png", timed, scale)
+    plot_minima(job.folder / "minima.png", sigma.position, 1.0 / p.rate, drawing.canvas)
+    print_table(table, ratios)
+    metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
+    return {**doc, "metrics": metrics}
+
+
+def method_figures(path: Any, scale: float, rate: float) -> dict[str, float]:
+    """Duration, inverse duration, peak speed, speed peaks, MSJ and LDJ of a timed path, in
+    metres."""
+    from inkmotion.evaluation import metrics as M
+
+    figures = dict(M.trajectory_metrics(path.position * scale, 1.0 / rate))
+    figures["inverse_duration"] = 1.0 / figures["duration"]
+    return {k: (float(v) if np.ndim(v) == 0 else v) for k, v in figures.items()}
+
+
+def human_figures(recording: str, drawing: Any, folder: Path) -> dict[str, Any]:
+    """Agreement of the fit's speed peaks with the recorded motion's (when it has times)."""
+    from inkmotion.evaluation.human import human_agreement_from_files
+
+    return human_agreement_from_files(recording, drawing, folder / "human_speeds.png")
+
+
+def write_csv(path: Path, table: dict, ratios: dict) -> None:
+    """evaluation.csv: one row per method (duration, MSJ, LDJ, ...) and the ratio rows."""
+    keys = ["duration", "inverse_duration", "peak_speed", "speed_peaks", "msj", "ldj"]
+    lines = ["row," + ",".join(keys)]
+    for name, figures in table.items():
+        lines.append(name + "," + ",".join(f"{figures.get(k, float('nan')):.6g}"
+                                           for k in keys))
+    for name, r in ratios.items():
+        row = {"duration": r["duration"], "inverse_duration": 1.0 / r["duration"],
+               "msj": r["msj"], "ldj": r["ldj"]}
+        lines.append(f"{name}/sigma-lognormal," + ",".join(
+            f"{row[k]:.6g}" if k in row else "" for k in keys))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def print_table(table: dict, ratios: dict) -> None:
+    """The table on the terminal (rich)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    t = Table("", "duration s", "1/duration", "MSJ m²/s⁶", "LDJ", title="evaluation")
+    for name, f in table.items():
+        t.add_row(name, f"{f['duration']:.3f}", f"{f['inverse_duration']:.4f}",
+                  f"{f['msj']:.4g}", f"{f['ldj']:.3f}")
+    for name, r in ratios.items():
+        t.add_row(f"{name}/ΣΛ (>1: ΣΛ better)", f"{r['duration']:.3f}",
+                  f"{1.0 / r['duration']:.3f}", f"{r['msj']:.3f}", f"{r['ldj']:.3f}")
+    Console(stderr=True).print(t)

@@ -1,0 +1,253 @@
+"""Agreement of a fitted ΣΛ motion with the recorded human motion of the same tag (the
+paper's Fig. 2c: the fit is never shown the recorded speed, yet the minimum-time cost
+"produces a similar number and location of peaks").
+
+Recorded times. GML points may carry time stamps; the GML reader keeps them per stroke in
+``Traces.meta["t"]`` (aligned with the points, which it de-duplicates together with their
+times). :meth:`Traces.fit_to_canvas` scales the points uniformly and leaves the times as
+they are, so the two stay aligned. GML writers use seconds or milliseconds: a recording
+whose longest stroke lasts more than :data:`MS_THRESHOLD` is taken to be in milliseconds.
+
+Time quantisation. Recorders often stamp several consecutive points with the same time
+(the 000000book tags: 2–3 points per ~16 ms display frame). Each distinct time is taken as
+the moment the pen reached the *last* point stamped with it (the first stamp: the first
+point); later points whose time does not increase are kept for the geometry but not as
+time anchors. Arc length s(t) is interpolated linearly between anchors on a uniform time
+grid (``rate`` Hz) and its derivative, the speed, smoothed by a Gaussian of ``smooth_s``
+seconds (the "Gaussian smoothed" profile of Fig. 2c).
+
+Peak matching. Speed peaks (:func:`inkmotion.evaluation.metrics.speed_peaks`, each stroke
+taken to start and end at rest, so a peak may sit at an end) are located by
+their position along the trace, the arc length normalised to [0, 1] per stroke, so the
+recording and the fit compare although they run on different clocks. Peaks are paired one to
+one by minimum total distance (Hungarian assignment); a pair counts as matched when the two
+lie within ``tolerance`` of each other. The offset is the mean |Δs| of the matched pairs, in
+that normalised arc length.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+from scipy.optimize import linear_sum_assignment
+
+from inkmotion.errors import InputError
+from inkmotion.evaluation.metrics import speed_peaks
+
+#: a recording whose longest stroke lasts more than this (in its own unit) is in ms
+MS_THRESHOLD = 100.0
+#: default matching tolerance, in normalised arc length
+TOLERANCE = 0.1
+
+
+def times_in_seconds(times: list[np.ndarray]) -> tuple[list[np.ndarray], str]:
+    """``times`` (one array per stroke) in seconds, and the unit detected: "ms" when the
+    longest stroke lasts more than :data:`MS_THRESHOLD`, else "s"."""
+    longest = max((float(np.nanmax(t) - np.nanmin(t)) for t in times if len(t)), default=0.0)
+    if longest > MS_THRESHOLD:
+        return [np.asarray(t, dtype=np.float64) / 1000.0 for t in times], "ms"
+    return [np.asarray(t, dtype=np.float64) for t in times], "s"
+
+
+def arc_length(points: np.ndarray) -> np.ndarray:
+    """(k,) cumulative planar arc length of the polyline ``points`` (k, D), from 0."""
+    steps = np.linalg.norm(np.diff(np.asarray(points, dtype=np.float64)[:, :2], axis=0), axis=1)
+    return np.concatenate(([0.0], np.cumsum(steps)))
+
+
+def time_anchors(arc: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Strictly increasing times and the arc length reached at each (module docstring):
+    each new time is anchored at the last point stamped with it (the first at arc 0)."""
+    t = np.asarray(t, dtype=np.float64)
+    new = np.ones(len(t), dtype=bool)
+    new[1:] = t[1:] > np.maximum.accumulate(t)[:-1]
+    starts = np.flatnonzero(new)
+    ends = np.append(starts[1:] - 1, len(t) - 1)  # last point of each stamp's group
+    s = arc[ends].copy()
+    s[0] = arc[0]
+    return t[starts], s
+
+
+def recorded_speed(stroke: np.ndarray, t: np.ndarray, *, rate: float = 200.0,
+                   smooth_s: float = 0.03,
+                   unit: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Speed profile of one recorded stroke ``stroke`` (k, 2|3) with times ``t`` (k,).
+
+    ``unit`` is "s", "ms" or "auto" (ms when the stroke lasts more than
+    :data:`MS_THRESHOLD`). Returns, on a uniform grid of ``rate`` Hz from the first to the
+    last time: the arc length (n,) in the stroke's units, the speed (n,) in units/s,
+    smoothed by a Gaussian of ``smooth_s`` s, and the times (n,) in s."""
+    t = np.asarray(t, dtype=np.float64)
+    if len(t) != len(stroke):
+        raise ValueError(f"{len(stroke)} points but {len(t)} times")
+    if unit == "ms" or (unit == "auto" and float(t.max() - t.min()) > MS_THRESHOLD):
+        t = t / 1000.0
+    anchor_t, anchor_s = time_anchors(arc_length(stroke), t)
+    if len(anchor_t) < 2:
+        raise ValueError("the stroke has fewer than two distinct times")
+    n = max(int(np.floor((anchor_t[-1] - anchor_t[0]) * rate)) + 1, 2)
+    times = anchor_t[0] + np.arange(n) / rate
+    arc = np.interp(times, anchor_t, anchor_s)
+    speed = np.gradient(arc, 1.0 / rate) if n > 2 else np.full(n, (arc[1] - arc[0]) * rate)
+    if smooth_s > 0:
+        speed = gaussian_filter1d(speed, smooth_s * rate, mode="nearest")
+    return arc, speed, times
+
+
+def _normalised(arc: np.ndarray) -> np.ndarray:
+    arc = np.asarray(arc, dtype=np.float64)
+    span = float(arc[-1] - arc[0])
+    return (arc - arc[0]) / span if span > 0 else np.zeros_like(arc)
+
+
+def _peaks_from_rest(speed: np.ndarray, prominence: float) -> np.ndarray:
+    """Speed peak indices with the stroke taken to start and end at rest (a zero speed is
+    put before and after it), so a short flick whose speed only rises and falls at the ends
+    of the recording still has its one peak."""
+    padded = np.concatenate(([0.0], np.asarray(speed, dtype=np.float64), [0.0]))
+    return np.clip(speed_peaks(padded, 1.0, prominence=prominence) - 1, 0, len(speed) - 1)
+
+
+def compare_peaks(recorded_arc: np.ndarray, recorded_speed: np.ndarray, fit_arc: np.ndarray,
+                  fit_speed: np.ndarray, tolerance: float = TOLERANCE, *,
+                  prominence: float = 0.05) -> dict[str, Any]:
+    """Speed peaks of a recorded and a fitted stroke located along the trace (arc length
+    normalised to [0, 1]) and paired (module docstring). Both speed arrays are taken as
+    uniform in time, already smoothed as wanted.
+
+    Returns recorded_peaks, fit_peaks (counts), matched (pairs within ``tolerance``),
+    mean_offset (mean |Δs| of the matched pairs, normalised arc length; None when none),
+    and the peak positions recorded_at, fit_at."""
+    rec_at = _normalised(recorded_arc)[_peaks_from_rest(recorded_speed, prominence)]
+    fit_at = _normalised(fit_arc)[_peaks_from_rest(fit_speed, prominence)]
+    offsets: np.ndarray = np.zeros(0)
+    if len(rec_at) and len(fit_at):
+        cost = np.abs(rec_at[:, None] - fit_at[None, :])
+        rows, cols = linear_sum_assignment(cost)
+        offsets = cost[rows, cols]
+        offsets = offsets[offsets <= tolerance]
+    return {
+        "recorded_peaks": int(len(rec_at)),
+        "fit_peaks": int(len(fit_at)),
+        "matched": int(len(offsets)),
+        "mean_offset": float(offsets.mean()) if len(offsets) else None,
+        "recorded_at": rec_at.tolist(),
+        "fit_at": fit_at.tolist(),
+    }
+
+
+def human_agreement(recorded: list[tuple[np.ndarray, np.ndarray]],
+                    fit: list[tuple[np.ndarray, np.ndarray]], *,
+                    tolerance: float = TOLERANCE, rate: float = 200.0, smooth_s: float = 0.03,
+                    prominence: float = 0.05) -> dict[str, Any]:
+    """Peak agreement stroke by stroke.
+
+    ``recorded``: per stroke (points (k, 2|3), times (k,) in s); ``fit``: per stroke
+    (positions (n, D) uniform in time, speeds (n,)), in the same canvas coordinates and the
+    same order. Returns {"strokes": [...], "total": {...}} with recorded_duration_s,
+    recorded_peaks, fit_peaks, matched_peaks and mean_position_offset (normalised arc
+    length; the total weighs strokes by their matched peaks)."""
+    if len(recorded) != len(fit):
+        raise ValueError(f"{len(recorded)} recorded strokes but {len(fit)} fitted ones")
+    strokes = []
+    for (points, t), (positions, speeds) in zip(recorded, fit, strict=True):
+        arc, speed, times = recorded_speed(points, t, rate=rate, smooth_s=smooth_s, unit="s")
+        c = compare_peaks(arc, speed, arc_length(positions), speeds, tolerance,
+                          prominence=prominence)
+        strokes.append({"recorded_duration_s": float(times[-1] - times[0]),
+                        "recorded_peaks": c["recorded_peaks"], "fit_peaks": c["fit_peaks"],
+                        "matched_peaks": c["matched"],
+                        "mean_position_offset": c["mean_offset"]})
+    matched = sum(s["matched_peaks"] for s in strokes)
+    offset = (sum(s["mean_position_offset"] * s["matched_peaks"] for s in strokes
+                  if s["matched_peaks"]) / matched) if matched else None
+    total = {"recorded_duration_s": sum(s["recorded_duration_s"] for s in strokes),
+             "recorded_peaks": sum(s["recorded_peaks"] for s in strokes),
+             "fit_peaks": sum(s["fit_peaks"] for s in strokes),
+             "matched_peaks": matched, "mean_position_offset": offset}
+    return {"strokes": strokes, "total": total, "tolerance": tolerance, "smooth_s": smooth_s}
+
+
+def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.ndarray]],
+                        fit: list[tuple[np.ndarray, np.ndarray]]) -> None:
+    """PNG of both speed profiles along the trace: per stroke (arc length (n,), speed (n,)).
+
+    x: position along the whole drawing, strokes concatenated; stroke i spans its share of
+    the recorded total arc length, and both profiles are placed on it by their own arc
+    length normalised to [0, 1], so the axis runs from 0 to 1. y: each stroke's speed
+    divided by that stroke's own peak speed (the two run on different clocks)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lengths = np.array([float(a[-1] - a[0]) for a, _ in recorded])
+    total = float(lengths.sum()) or 1.0
+    starts = np.concatenate(([0.0], np.cumsum(lengths)))[:-1] / total
+    fig, ax = plt.subplots(figsize=(9, 3.2), dpi=120)
+    for i, ((ra, rs), (fa, fs)) in enumerate(zip(recorded, fit, strict=True)):
+        width = lengths[i] / total
+        for arc, speed, colour, label in ((ra, rs, "#999999", "recorded (smoothed)"),
+                                          (fa, fs, "#222222", "ΣΛ fit")):
+            x = starts[i] + width * _normalised(arc)
+            ax.plot(x, speed / max(float(np.max(speed)), 1e-12), color=colour, lw=1.2,
+                    label=label if i == 0 else None)
+        if i:
+            ax.axvline(starts[i], color="#dddddd", lw=0.8, zorder=0)
+    ax.set_xlabel("position along the drawing (arc length, strokes concatenated, 0..1)")
+    ax.set_ylabel("speed / stroke's peak")
+    ax.set_xlim(0, 1)
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _pair(recorded: list[np.ndarray], fitted: list[np.ndarray]) -> list[int]:
+    """For each recorded stroke, the fitted path drawn over it: in order when the counts
+    agree, else by nearest start and end points (one to one)."""
+    if len(recorded) == len(fitted):
+        return list(range(len(recorded)))
+    cost = np.array([[np.linalg.norm(r[0, :2] - f[0, :2]) + np.linalg.norm(r[-1, :2] - f[-1, :2])
+                      for f in fitted] for r in recorded])
+    rows, cols = linear_sum_assignment(cost)
+    return [int(cols[list(rows).index(i)]) if i in rows else -1 for i in range(len(recorded))]
+
+
+def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,
+                               **options: Any) -> dict[str, Any]:
+    """Agreement of ``drawing`` (a :class:`~inkmotion.sigma_lognormal.Drawing` fitted to
+    ``recording``) with the recording's timed motion; writes the speed plot to ``png``.
+
+    The recording is mapped onto the drawing's canvas as the fit job does
+    (``fit_to_canvas(max(canvas))``), the plans are sampled uniformly in time. A recording
+    without times gives {"has_times": False, ...} and no plot. ``options`` go to
+    :func:`human_agreement`."""
+    from inkmotion.geometry.read import read_input
+    from inkmotion.outputs.sampling import sample
+
+    traces = read_input(recording)
+    if traces.meta.get("t") is None:
+        return {"has_times": False,
+                "note": f"{recording}: the points carry no time stamps, so there is no "
+                        "recorded speed to compare with."}
+    traces = traces.fit_to_canvas(max(drawing.canvas))
+    times, unit = times_in_seconds(traces.meta["t"])
+    if [len(t) for t in times] != [len(s) for s in traces.strokes]:
+        raise InputError(f"{recording}: the time stamps do not line up with the points.")
+    samples = [sample(plan) for plan in drawing.plans]
+    index = _pair(traces.strokes, [s.positions for s in samples])
+    kept = [i for i, j in enumerate(index) if j >= 0]
+    recorded = [(traces.strokes[i], times[i]) for i in kept]
+    fit = [(samples[index[i]].positions, samples[index[i]].speed) for i in kept]
+    result = human_agreement(recorded, fit, **options)
+    rate = float(options.get("rate", 200.0))
+    smooth_s = float(options.get("smooth_s", 0.03))
+    profiles = [recorded_speed(p, t, rate=rate, smooth_s=smooth_s, unit="s")[:2]
+                for p, t in recorded]
+    plot_speed_profiles(png, profiles, [(arc_length(p), s) for p, s in fit])
+    return {"has_times": True, "time_unit": unit, "strokes_paired": len(kept),
+            "plot": Path(png).name, **result}

@@ -1,0 +1,237 @@
+"""Evaluation metrics on analytic cases (minimum jerk, circles, ellipses) and the agreement
+with recorded human motion (a synthetic recording, then the real tags when present)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inkmotion.evaluation import human as H
+from inkmotion.evaluation import metrics as M
+
+GML = Path("/work/shared/data/gml")
+#: the closed form of LDJ for a minimum-jerk point-to-point movement: −ln(720·64/225)
+MIN_JERK_LDJ = -math.log(720.0 * 64.0 / 225.0)
+
+
+def min_jerk(amplitude: float = 1.0, duration: float = 1.0, n: int = 1001,
+             direction: tuple[float, float] = (0.6, 0.8)) -> tuple[np.ndarray, float]:
+    """x(τ) = A(10τ³ − 15τ⁴ + 6τ⁵) along ``direction``, n samples over [0, T]."""
+    tau = np.linspace(0.0, 1.0, n)
+    s = amplitude * (10 * tau**3 - 15 * tau**4 + 6 * tau**5)
+    return s[:, None] * np.asarray(direction)[None, :], duration / (n - 1)
+
+
+def test_min_jerk_ldj_matches_the_closed_form():
+    assert MIN_JERK_LDJ == pytest.approx(-5.3220, abs=1e-4)
+    position, dt = min_jerk()
+    assert M.ldj(position, dt) == pytest.approx(MIN_JERK_LDJ, abs=1e-3)
+    # 3-D positions: the radius column is ignored
+    with_radius = np.column_stack([position, np.full(len(position), 7.0)])
+    assert M.ldj(with_radius, dt) == pytest.approx(M.ldj(position, dt), abs=1e-12)
+
+
+def test_ldj_with_exact_derivatives():
+    n, T, A = 501, 0.8, 2.0
+    tau = np.linspace(0.0, 1.0, n)
+    d = np.array([1.0, 0.0])
+    position = (A * (10 * tau**3 - 15 * tau**4 + 6 * tau**5))[:, None] * d
+    velocity = (A / T * (30 * tau**2 - 60 * tau**3 + 30 * tau**4))[:, None] * d
+    acceleration = (A / T**2 * (60 * tau - 180 * tau**2 + 120 * tau**3))[:, None] * d
+    dt = T / (n - 1)
+    got = M.ldj(position, dt, velocity=velocity, acceleration=acceleration)
+    assert got == pytest.approx(MIN_JERK_LDJ, abs=1e-4)
+    assert M.msj(position, dt, acceleration=acceleration) == pytest.approx(
+        720 * A**2 / T**6, rel=1e-4)
+    jerk = M.jerk_from(acceleration, dt)
+    exact = A / T**3 * (60 - 360 * tau + 360 * tau**2)
+    assert np.max(np.abs(jerk[:, 0] - exact)) < 1e-3 * np.max(np.abs(exact))
+
+
+def test_ldj_is_invariant_to_space_and_time_scaling():
+    base = M.ldj(*min_jerk(1.0, 1.0))
+    assert M.ldj(*min_jerk(3.0, 2.0)) == pytest.approx(base, abs=1e-9)
+    assert M.ldj(*min_jerk(0.01, 0.25)) == pytest.approx(base, abs=1e-9)
+
+
+def test_msj_follows_its_definition_and_scales_as_a2_over_t6():
+    position, dt = min_jerk(1.0, 1.0)
+    assert M.msj(position, dt) == pytest.approx(720.0, rel=1e-4)  # (1/T)·720A²/T⁵
+    for A, T in ((3.0, 2.0), (0.5, 0.3)):
+        ratio = M.msj(*min_jerk(A, T)) / M.msj(position, dt)
+        assert ratio == pytest.approx(A**2 / T**6, rel=1e-9)
+
+
+def test_speed_peaks_and_minima():
+    position, dt = min_jerk(1.0, 1.0)
+    s = M.speed(position, dt)
+    assert s.max() == pytest.approx(15.0 / 8.0, rel=1e-5)
+    assert M.peak_speed(position, dt) == pytest.approx(15.0 / 8.0, rel=1e-5)
+    assert list(M.speed_peaks(s, dt)) == [500]
+    assert len(M.speed_minima(s, dt)) == 0
+    # two movements one after the other, the second at right angles
+    second, _ = min_jerk(0.5, 1.0, direction=(-0.8, 0.6))
+    both = np.vstack([position, position[-1] + second[1:]])
+    s2 = M.speed(both, dt)
+    assert len(M.speed_peaks(s2, dt)) == 2
+    assert list(M.speed_minima(s2, dt)) == [1000]
+    # noise: smoothing keeps the count
+    rng = np.random.default_rng(0)
+    noisy = s2 + rng.normal(0.0, 0.02, len(s2))
+    assert len(M.speed_peaks(noisy, dt, smooth_s=0.03)) == 2
+
+
+def test_duration_and_uniform_step():
+    t = np.linspace(0.5, 2.5, 201)
+    assert M.duration(t) == pytest.approx(2.0)
+    assert M.uniform_step(t) == pytest.approx(0.01)
+    with pytest.raises(ValueError):
+        M.uniform_step(np.array([0.0, 0.1, 0.3]))
+
+
+@pytest.mark.parametrize("radius", [1.0, 40.0])
+def test_curvature_of_a_circle_is_one_over_r(radius):
+    t = np.linspace(0.0, 2.0, 2001)
+    theta = 2 * np.pi * (t + 0.2 * t**2)  # non-uniform angular speed
+    position = radius * np.column_stack([np.cos(theta), np.sin(theta)])
+    kappa = M.curvature(position, t[1] - t[0])
+    assert np.allclose(kappa[2:-2], 1.0 / radius, rtol=1e-4)
+
+
+def test_speed_minima_sit_at_curvature_maxima_on_an_ellipse():
+    # harmonic motion on an ellipse obeys the 2/3 power law: slowest where most curved
+    t = np.linspace(0.0, 2.0, 4001)
+    position = np.column_stack([2.0 * np.cos(2 * np.pi * t), np.sin(2 * np.pi * t)])
+    got = M.speed_minima_at_curvature_maxima(position, t[1] - t[0])
+    assert got["curvature_maxima"] == 3 and got["speed_minima"] == 3  # θ = π, 2π, 3π
+    assert got["curvature_maxima_with_speed_minimum"] == 1.0
+    assert got["speed_minima_with_curvature_maximum"] == 1.0
+    assert abs(got["median_lag_s"]) < 1e-9
+    # a straight line has neither
+    line, dt = min_jerk()
+    none = M.speed_minima_at_curvature_maxima(line, dt)
+    assert none["curvature_maxima_with_speed_minimum"] is None
+
+
+def test_trajectory_metrics_bundle():
+    position, dt = min_jerk(2.0, 1.0)
+    got = M.trajectory_metrics(position, dt)
+    assert set(got) == {"duration", "peak_speed", "speed_peaks", "msj", "ldj"}
+    assert got["duration"] == pytest.approx(1.0)
+    assert got["speed_peaks"] == 1
+    assert got["ldj"] == pytest.approx(MIN_JERK_LDJ, abs=1e-3)
+    assert got["msj"] == pytest.approx(720 * 4.0, rel=1e-4)
+
+
+# ---------------------------------------------------------------- human recordings
+
+
+def two_bell_motion(t: np.ndarray) -> np.ndarray:
+    """A curved stroke over t ∈ [0, 1] s whose speed has two bells (arc length is two
+    minimum-jerk segments of 60 and 40 px) along a quarter circle of radius 100 px."""
+    tau = np.clip(np.where(t < 0.5, t / 0.5, (t - 0.5) / 0.5), 0.0, 1.0)
+    mj = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    s = np.where(t < 0.5, 60.0 * mj, 60.0 + 40.0 * mj)
+    phi = s / 100.0
+    return np.column_stack([100.0 * np.cos(phi), 100.0 * np.sin(phi)])
+
+
+def synthetic_recording(seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Points of :func:`two_bell_motion` at irregular times, stamped in ms."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0.0, 1.0, 150)]))
+    return two_bell_motion(t), 1000.0 * t + 250.0
+
+
+def test_times_in_seconds_detects_milliseconds():
+    ms, unit = H.times_in_seconds([np.array([0.0, 50.0]), np.array([300.0, 450.0])])
+    assert unit == "ms" and ms[1][1] == pytest.approx(0.45)
+    s, unit = H.times_in_seconds([np.array([0.1, 1.2])])
+    assert unit == "s" and s[0][1] == pytest.approx(1.2)
+
+
+def test_time_anchors_take_the_last_point_of_each_stamp():
+    arc = np.array([0.0, 1.0, 2.0, 3.0, 4.0, 5.0])
+    t = np.array([0.0, 0.0, 0.1, 0.1, 0.05, 0.2])  # a repeated and a backwards stamp
+    at, s = H.time_anchors(arc, t)
+    assert list(at) == [0.0, 0.1, 0.2]
+    assert list(s) == [0.0, 4.0, 5.0]
+
+
+def test_recorded_speed_of_a_synthetic_recording():
+    points, t_ms = synthetic_recording()
+    arc, speed, times = H.recorded_speed(points, t_ms, rate=200, smooth_s=0.01)
+    assert times[0] == pytest.approx(0.25) and times[-1] == pytest.approx(1.25, abs=0.005)
+    assert np.all(np.diff(arc) >= 0) and arc[-1] == pytest.approx(100.0, rel=1e-3)
+    assert len(M.speed_peaks(speed, 1 / 200)) == 2
+    assert speed.max() == pytest.approx(60.0 * 15 / 8 / 0.5, rel=0.05)  # 225 px/s
+
+
+def test_a_recording_agrees_with_itself():
+    points, t_ms = synthetic_recording()
+    truth = two_bell_motion(np.linspace(0.0, 1.0, 401))
+    truth_speed = M.speed(truth, 1.0 / 400)
+    arc, speed, _ = H.recorded_speed(points, t_ms)
+    got = H.compare_peaks(arc, speed, H.arc_length(truth), truth_speed, tolerance=0.05)
+    assert got["recorded_peaks"] == got["fit_peaks"] == got["matched"] == 2
+    assert got["mean_offset"] < 0.01
+    assert got["fit_at"] == pytest.approx([0.3, 0.8], abs=0.01)  # halfway along each bell
+    result = H.human_agreement([(points, t_ms / 1000.0)] * 2, [(truth, truth_speed)] * 2)
+    total = result["total"]
+    assert total["recorded_peaks"] == total["fit_peaks"] == total["matched_peaks"] == 4
+    assert total["recorded_duration_s"] == pytest.approx(2.0, abs=0.02)
+    assert total["mean_position_offset"] < 0.01
+
+
+def test_compare_peaks_counts_unmatched_peaks():
+    arc = np.linspace(0.0, 1.0, 101)
+    one = np.exp(-((arc - 0.5) / 0.1) ** 2)
+    two = np.exp(-((arc - 0.2) / 0.05) ** 2) + np.exp(-((arc - 0.8) / 0.05) ** 2)
+    got = H.compare_peaks(arc, one, arc, two, tolerance=0.1)
+    assert (got["recorded_peaks"], got["fit_peaks"], got["matched"]) == (1, 2, 0)
+    assert got["mean_offset"] is None
+
+
+def test_plot_speed_profiles_writes_a_png(tmp_path):
+    points, t_ms = synthetic_recording()
+    arc, speed, _ = H.recorded_speed(points, t_ms)
+    out = tmp_path / "speeds.png"
+    H.plot_speed_profiles(out, [(arc, speed), (arc, speed)], [(arc, speed), (arc, speed)])
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.skipif(not GML.is_dir(), reason="the shared tag folder is absent")
+def test_real_tags_carry_times_and_agree_with_a_plan(tmp_path):
+    import torch
+
+    from inkmotion.errors import InputError
+    from inkmotion.geometry.read import read_input
+    from inkmotion.plugins.dce import dce
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+
+    timed = {}
+    for path in sorted(GML.iterdir()):
+        try:
+            traces = read_input(str(path))
+        except InputError:
+            continue
+        if traces.meta.get("t") is not None:
+            seconds, unit = H.times_in_seconds(traces.meta["t"])
+            timed[path.name] = (unit, sum(float(t[-1] - t[0]) for t in seconds))
+    print({name: (unit, round(d, 3)) for name, (unit, d) in timed.items()})
+    assert {"49867.json", "49873.json"} <= set(timed)
+
+    source = str(GML / "49867.json")
+    traces = read_input(source).fit_to_canvas(350)
+    assert [len(t) for t in traces.meta["t"]] == [len(s) for s in traces.strokes]
+    plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
+    drawing = Drawing((traces.width, traces.height), plans)
+    got = H.human_agreement_from_files(source, drawing, tmp_path / "human.png")
+    print(got["total"])
+    assert got["has_times"] and got["time_unit"] == "s"
+    assert got["strokes_paired"] == len(traces.strokes)
+    assert got["total"]["recorded_peaks"] > 0 and got["total"]["fit_peaks"] > 0
+    assert (tmp_path / "human.png").stat().st_size > 1000
