@@ -12,7 +12,7 @@ import pytest
 from inkmotion.evaluation import human as H
 from inkmotion.evaluation import metrics as M
 
-GML = Path("/work/shared/data/gml")
+GML = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "gml"
 #: the closed form of LDJ for a minimum-jerk point-to-point movement: −ln(720·64/225)
 MIN_JERK_LDJ = -math.log(720.0 * 64.0 / 225.0)
 
@@ -235,3 +235,34 @@ def test_real_tags_carry_times_and_agree_with_a_plan(tmp_path):
     assert got["strokes_paired"] == len(traces.strokes)
     assert got["total"]["recorded_peaks"] > 0 and got["total"]["fit_peaks"] > 0
     assert (tmp_path / "human.png").stat().st_size > 1000
+
+
+@pytest.mark.skipif(not GML.is_dir(), reason="the shared tag folder is absent")
+def test_item_figures_of_a_timed_tag(tmp_path):
+    """The benchmark's motion figures of a plan of 49867.json: the fit's peaks, the
+    recording's, the pairing and its plot, and the evaluation ratios."""
+    import torch
+
+    from inkmotion.evaluation.fit_motion import item_figures
+    from inkmotion.geometry.read import read_input
+    from inkmotion.plugins.dce import dce
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+
+    source = str(GML / "49873.json")
+    traces = read_input(source).fit_to_canvas(350)
+    plans = [MotorPlan.from_points(dce(s, threshold=20.0), dtype=torch.float64)
+             for s in traces.strokes]
+    Drawing((traces.width, traces.height), plans).save(tmp_path / "plan.json")
+    got = item_figures(tmp_path, source)
+    print(got)
+    assert got["fit_speed_peaks"] >= len(plans)
+    assert got["recorded_peaks"] > len(plans)
+    assert 0 < got["matched_peaks"] <= min(got["recorded_peaks"], got["fit_speed_peaks"])
+    assert 0.0 <= got["peak_offset"] <= 0.1
+    assert got["recorded_duration_s"] > 1.0
+    assert (tmp_path / "human_speeds.png").stat().st_size > 1000
+    assert got["totg_duration"] < 1.0 and got["minjerk_duration"] > 0
+    assert all(math.isfinite(got[k]) for k in ("minjerk_msj", "minjerk_ldj", "totg_msj",
+                                                "totg_ldj"))
+    words = item_figures(tmp_path, "text:hi", ratios=False)
+    assert set(words) == {"fit_speed_peaks"}

@@ -7,8 +7,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import sys
-import types
 from pathlib import Path
 
 import pytest
@@ -121,15 +119,20 @@ def test_aggregate_skips_failures_and_non_finite_values() -> None:
     assert summary["totals"]["failed"] == 1
 
 
-def test_extra_figures_hook(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.setitem(sys.modules, "inkmotion.evaluation.summary", None)  # not there yet
-    assert bm.extra_figures(tmp_path, "text:x") == {}
-    module = types.ModuleType("inkmotion.evaluation.summary")
-    module.item_figures = lambda item_dir, source: {"peaks": 3, "ratios": {"duration": 1.5}}
-    monkeypatch.setitem(sys.modules, "inkmotion.evaluation.summary", module)
-    figures = bm._flatten(bm.extra_figures(tmp_path, "text:x"))
-    assert figures == {"peaks": 3, "ratios.duration": 1.5}
-    rows = [{"item": "a", "source": "a", "status": "ok", **figures}]
-    summary = bm.summarise(rows, wall_s=0.1)
-    assert [c["key"] for c in summary["columns"]][-2:] == ["peaks", "ratios.duration"]
-    assert summary["aggregate"]["ratios.duration"]["mean"] == 1.5
+def test_words_get_speed_peaks_and_evaluation_ratios(bench_run: tuple) -> None:
+    out, _ = bench_run
+    rows = {r["item"]: r for r in json.loads((out / "summary.json").read_text())["items"]}
+    for name in ("text-hi", "text-ok"):
+        row = rows[name]
+        assert "motion_error" not in row, row.get("motion_error")
+        assert row["fit_speed_peaks"] >= 1
+        assert "recorded_peaks" not in row  # a Hershey word has no time stamps
+        for key in ("minjerk_duration", "minjerk_msj", "minjerk_ldj", "totg_duration",
+                    "totg_msj", "totg_ldj"):
+            assert math.isfinite(row[key]) and row[key] > 0, (name, key)
+        assert row["totg_duration"] < 1  # time-optimal is the fastest under the same limits
+
+
+def test_columns_absent_from_every_row_are_left_out() -> None:
+    rows = [{"item": "a", "source": "a", "status": "ok", "moves": 3, "iou": 0.5, "other": 2.0}]
+    assert bm.numeric_keys(rows) == ["moves", "iou", "other"]

@@ -14,8 +14,9 @@ inputs and compare ``summary.json``. Per item it reports
   of a bound of :data:`~inkmotion.sigma_lognormal.params.DELTA_T_RANGE` — a high share
   means the smoothing cost pins the plan, which then stops being a model of movement;
 - ``steps``, ``fit_s`` (the optimiser) and ``wall_s`` (the whole job);
-- whatever :func:`extra_figures` returns (speed peaks against the recording, evaluation
-  ratios) once :mod:`inkmotion.evaluation.summary` exists.
+- :func:`motion_figures`: the fit's speed peaks, against the recorded ones when the input
+  has time stamps, and the paper's evaluation ratios minimum jerk / ΣΛ and time-optimal /
+  ΣΛ of duration, MSJ and LDJ on the longest path (> 1: ΣΛ better).
 
 Items run in worker processes ('spawn': torch and fork do not mix), each with
 max(1, cores // jobs) torch threads (capped like a single job's default). A failing item
@@ -56,6 +57,17 @@ COLUMNS: tuple[tuple[str, str, str, str], ...] = (
     ("steps", "steps", "", "Adam steps"),
     ("fit_s", "fit", "s", "optimiser wall time"),
     ("wall_s", "wall", "s", "the whole job's wall time"),
+    ("fit_speed_peaks", "speed peaks", "", "speed peaks of the fit, all paths"),
+    ("recorded_peaks", "recorded peaks", "", "speed peaks of the recording (smoothed)"),
+    ("matched_peaks", "matched peaks", "", "fit peaks within 0.1 of arc of a recorded one"),
+    ("peak_offset", "peak offset", "arc", "mean |Δs| of matched peaks, arc length 0..1"),
+    ("recorded_duration_s", "recorded T", "s", "duration of the recorded motion"),
+    ("minjerk_duration", "MJ/ΣΛ T", "", "minimum-jerk duration / ΣΛ's (> 1: ΣΛ faster)"),
+    ("minjerk_msj", "MJ/ΣΛ MSJ", "", "> 1: ΣΛ smoother (paper: < 1)"),
+    ("minjerk_ldj", "MJ/ΣΛ LDJ", "", "> 1: ΣΛ smoother (paper: > 1)"),
+    ("totg_duration", "TO/ΣΛ T", "", "time-optimal duration / ΣΛ's (paper: < 1)"),
+    ("totg_msj", "TO/ΣΛ MSJ", "", "> 1: ΣΛ smoother (paper: > 1)"),
+    ("totg_ldj", "TO/ΣΛ LDJ", "", "> 1: ΣΛ smoother (paper: > 1)"),
 )
 SUMMARY_FILES = ("summary.json", "summary.csv", "summary.md", "summary.html")
 
@@ -210,15 +222,12 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     return {"iou": iou, "delta_t_at_clamp": share}
 
 
-def extra_figures(item_dir: Path, source: str) -> dict[str, Any]:
-    """Optional figures of another module (speed peaks against the recording, evaluation
-    ratios): ``inkmotion.evaluation.summary.item_figures(item_dir, source)`` when that
-    module exists, else {}."""
-    try:
-        from inkmotion.evaluation.summary import item_figures  # type: ignore[import-not-found]
-    except ImportError:
-        return {}
-    return dict(item_figures(item_dir, source))
+def motion_figures(item_dir: Path, source: str) -> dict[str, Any]:
+    """Speed peaks of the fit, against the recording's when ``source`` has time stamps, and
+    the paper's evaluation ratios (:func:`inkmotion.evaluation.fit_motion.item_figures`)."""
+    from inkmotion.evaluation.fit_motion import item_figures
+
+    return item_figures(item_dir, source)
 
 
 def _flatten(figures: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -255,9 +264,9 @@ def run_item(source: str, folder: str, spec: dict[str, Any]) -> dict[str, Any]:
                 "error": f"internal error ({type(exc).__name__}: {exc}); please report it.",
                 "wall_s": round(time.perf_counter() - started, 3)}
     try:
-        row.update(_flatten(extra_figures(Path(folder), source)))
-    except Exception as exc:  # the fit stands; the optional figures are missing
-        row["extra_error"] = f"{type(exc).__name__}: {exc}"
+        row.update(_flatten(motion_figures(Path(folder), source)))
+    except Exception as exc:  # the fit stands; its motion figures are missing, and say so
+        row["motion_error"] = f"{type(exc).__name__}: {exc}"
     return row
 
 
@@ -360,14 +369,16 @@ def _run_parallel(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
 
 
 def numeric_keys(rows: list[dict[str, Any]]) -> list[str]:
-    """The figure columns: the benchmark's own, then the extra ones in order of appearance."""
+    """The figure columns: the benchmark's own that some row has (in :data:`COLUMNS`'
+    order), then any other numeric ones in order of appearance."""
     own = [k for k, _, _, _ in COLUMNS]
+    present = {k for row in rows for k in row}
     extra: list[str] = []
     for row in rows:
         for k, v in row.items():
             if k not in own and k not in extra and _is_number(v):
                 extra.append(k)
-    return own + extra
+    return [k for k in own if k in present] + extra
 
 
 def _is_number(v: Any) -> bool:

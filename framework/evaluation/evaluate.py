@@ -14,6 +14,7 @@ magnitude).
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -52,53 +53,82 @@ def choose_path(drawing: Any, index: int) -> int:
     return int(np.argmax(lengths))
 
 
-def run_evaluate(job: Job) -> dict[str, Any]:
-    """Time, measure, compare and plot one path of the job's plan."""
-    from inkmotion.evaluation import metrics as M
+@dataclass(frozen=True)
+class Comparison:
+    """The three timings of one path and their figures (metres), see :func:`compare`."""
+
+    timed: dict[str, Any]  # method -> TimedPath (px)
+    table: dict[str, dict[str, float]]  # method -> duration, MSJ, LDJ, ...
+    ratios: dict[str, dict[str, float]]  # alternative -> {duration, msj, ldj} / ΣΛ's
+    holds: dict[str, bool | None]  # "method/metric" -> the paper's direction holds
+
+
+def paper_scale(canvas: tuple[float, float], setup: str | None = None) -> float:
+    """m per canvas px when the canvas is put on the setup's paper (default setup: None)."""
+    from inkmotion.robot.calibration import PaperMapping
+    from inkmotion.robot.setup import load_setup
+
+    robot = load_setup(setup or None)
+    return PaperMapping.from_canvas(canvas, robot.paper, robot.margin).scale
+
+
+def compare(plan: Any, v_max: float, a_max: float, scale: float, rate: float = 1000.0,
+            progress: Any = None) -> Comparison:
+    """ΣΛ, path-constrained minimum jerk and time-optimal timings of ``plan``'s path under
+    |v| ≤ ``v_max`` (m/s) and |a| ≤ ``a_max`` (m/s²) on paper at ``scale`` m/px, sampled
+    at ``rate`` Hz; ``progress(k)`` is called after the k-th timing (k = 1..3)."""
     from inkmotion.evaluation.minjerk import minimum_jerk_timing
     from inkmotion.evaluation.time_optimal import time_optimal_timing
     from inkmotion.evaluation.timings import sigma_lognormal_timing
-    from inkmotion.robot.calibration import PaperMapping
-    from inkmotion.robot.setup import load_setup
-    from inkmotion.sigma_lognormal import Drawing
 
-    p = job.params
-    drawing = Drawing.load(job.spec.inputs["plan"])
-    setup = load_setup(p.setup or None)
-    scale = PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin).scale
-    index = choose_path(drawing, p.path)
-    plan = drawing.plans[index]
-    v_px, a_px = p.v_max / scale, p.a_max / scale
-    job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
-
-    sigma = sigma_lognormal_timing(plan, v_px, a_px, p.rate)
-    job.observers.on_step(StepState(1, 3, {}, 0.0))
-    minjerk = minimum_jerk_timing(sigma.position, v_px, a_px, p.rate)
-    job.observers.on_step(StepState(2, 3, {}, 0.0))
-    optimal = time_optimal_timing(sigma.position, v_px, a_px, p.rate)
-    job.observers.on_step(StepState(3, 3, {}, 0.0))
-
-    timed = dict(zip(METHODS, (sigma, minjerk, optimal), strict=True))
-    table = {name: method_figures(path, scale, p.rate) for name, path in timed.items()}
+    v_px, a_px = v_max / scale, a_max / scale
+    sigma = sigma_lognormal_timing(plan, v_px, a_px, rate)
+    timings = [sigma]
+    for make in (minimum_jerk_timing, time_optimal_timing):
+        if progress is not None:
+            progress(len(timings))
+        timings.append(make(sigma.position, v_px, a_px, rate))
+    if progress is not None:
+        progress(3)
+    timed = dict(zip(METHODS, timings, strict=True))
+    table = {name: method_figures(path, scale, rate) for name, path in timed.items()}
     ratios = {name: {k: table[name][k] / table[METHODS[0]][k]
                      for k in ("duration", "msj", "ldj")} for name in METHODS[1:]}
     holds = {f"{m}/{k}": (None if want is None else bool((ratios[m][k] > 1) == want))
              for (m, k), want in PAPER_DIRECTION.items()}
+    return Comparison(timed, table, ratios, holds)
+
+
+def run_evaluate(job: Job) -> dict[str, Any]:
+    """Time, measure, compare and plot one path of the job's plan."""
+    from inkmotion.evaluation import metrics as M
+    from inkmotion.sigma_lognormal import Drawing
+
+    p = job.params
+    drawing = Drawing.load(job.spec.inputs["plan"])
+    scale = paper_scale(drawing.canvas, p.setup)
+    index = choose_path(drawing, p.path)
+    plan = drawing.plans[index]
+    job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
+
+    c = compare(plan, p.v_max, p.a_max, scale, p.rate,
+                progress=lambda k: job.observers.on_step(StepState(k, 3, {}, 0.0)))
+    sigma = c.timed[METHODS[0]]
     minima = M.speed_minima_at_curvature_maxima(sigma.position * scale, 1.0 / p.rate)
     doc = {"path": index, "moves": plan.m, "v_max": p.v_max, "a_max": p.a_max,
-           "m_per_px": scale, "methods": table, "ratios": ratios, "paper_direction_holds":
-           holds, "speed_minima_at_curvature_maxima": minima,
+           "m_per_px": scale, "methods": c.table, "ratios": c.ratios,
+           "paper_direction_holds": c.holds, "speed_minima_at_curvature_maxima": minima,
            "method_notes": {"time-optimal": "TOPP-RA (toppra), standing in for TOTG"}}
     if p.recording:
         doc["human"] = human_figures(p.recording, drawing, job.folder)
     (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
-    write_csv(job.folder / "evaluation.csv", table, ratios)
+    write_csv(job.folder / "evaluation.csv", c.table, c.ratios)
     from inkmotion.evaluation.plots import plot_minima, plot_speeds
 
-    plot_speeds(job.folder / "speeds.png", timed, scale)
+    plot_speeds(job.folder / "speeds.png", c.timed, scale)
     plot_minima(job.folder / "minima.png", sigma.position, 1.0 / p.rate, drawing.canvas)
-    print_table(table, ratios)
-    metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
+    print_table(c.table, c.ratios)
+    metrics = {f"{m}_{k}_ratio": v for m, r in c.ratios.items() for k, v in r.items()}
     return {**doc, "metrics": metrics}
 
 

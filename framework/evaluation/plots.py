@@ -42,28 +42,40 @@ def plot_speeds(path: str | Path, timed: dict[str, Any], scale: float) -> None:
 
 def plot_minima(path: str | Path, position: np.ndarray, dt: float,
                 canvas: tuple[float, float]) -> None:
-    """The path (grey, canvas px, y down) with its speed minima as dots coloured by how
-    slow the pen is there, relative to the peak speed (dark: nearly stopped)."""
+    """The path (canvas px, y down, cropped to its extent) coloured by the pen's speed
+    relative to its peak, with its speed minima as dots (the paper's Fig. 3c/d: the pen
+    slows where the path bends). ``canvas`` is only used to keep the y axis pointing down
+    in canvas coordinates."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
     from scipy.signal import find_peaks
 
-    speed = _speed(position, dt)
+    xy = np.asarray(position, dtype=float)[:, :2]
+    speed = _speed(xy, dt)
+    relative = speed / max(float(speed.max()), 1e-12)
     minima, _ = find_peaks(-speed, prominence=0.02 * max(float(speed.max()), 1e-12))
-    w, h = float(canvas[0]), float(canvas[1])
-    fig, ax = plt.subplots(figsize=(6, 6 * h / max(w, 1.0) + 0.6), dpi=120)
-    ax.plot(position[:, 0], position[:, 1], color="#bbbbbb", lw=1.5)
-    dots = ax.scatter(position[minima, 0], position[minima, 1],
-                      c=speed[minima] / max(float(speed.max()), 1e-12), cmap="viridis",
-                      vmin=0, vmax=1, s=22, zorder=3)
-    fig.colorbar(dots, ax=ax, label="speed at the minimum / peak speed", shrink=0.7)
-    ax.set_xlim(0, w)
-    ax.set_ylim(h, 0)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    pad = 0.05 * float(max(hi - lo)) + 2.0
+    w, h = float(hi[0] - lo[0]) + 2 * pad, float(hi[1] - lo[1]) + 2 * pad
+    fig, ax = plt.subplots(figsize=(6.4, min(9.0, 5.4 * h / max(w, 1.0)) + 0.8), dpi=120)
+    pieces = np.stack([xy[:-1], xy[1:]], axis=1)  # (N−1, 2, 2)
+    line = LineCollection(pieces, cmap="viridis", norm=plt.Normalize(0, 1), linewidths=2.2)
+    line.set_array(0.5 * (relative[:-1] + relative[1:]))
+    ax.add_collection(line)
+    ax.scatter(xy[minima, 0], xy[minima, 1], s=30, facecolors="none", edgecolors="#d62728",
+               linewidths=1.4, zorder=3, label="speed minimum")
+    fig.colorbar(line, ax=ax, label="speed / peak speed", shrink=0.7)
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(hi[1] + pad, lo[1] - pad)  # canvas y runs down
     ax.set_aspect("equal")
-    ax.set_title(f"{len(minima)} speed minima along the path", fontsize=9)
-    ax.axis("off")
+    ax.set_title(f"{len(minima)} speed minima along the path (canvas "
+                 f"{canvas[0]:.0f}×{canvas[1]:.0f} px)", fontsize=9)
+    ax.legend(loc="lower right", fontsize=8)
+    ax.set_xticks([])
+    ax.set_yticks([])
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

@@ -1,7 +1,8 @@
 """The quality benchmark's readable reports: summary.md and summary.html.
 
 Both show the aggregate table first, then one row per item with thumbnails of its
-overlay.png and speed.png. Images are linked by paths relative to the summary (the item
+overlay.png and speed.png (and human_speeds.png when
+the input had time stamps). Images are linked by paths relative to the summary (the item
 folders sit beside it), so the folder can be moved or served as is; the HTML carries its
 own style and loads nothing from elsewhere (no CDN, no script).
 """
@@ -20,7 +21,7 @@ from inkmotion.evaluation.benchmark import (
 )
 
 #: the item images shown as thumbnails, in this order
-THUMBNAILS = ("overlay.png", "speed.png")
+THUMBNAILS = ("overlay.png", "speed.png", "human_speeds.png")
 
 
 def _item_images(out: Path, row: dict[str, Any]) -> list[str]:

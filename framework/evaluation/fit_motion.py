@@ -1,0 +1,83 @@
+"""Motion figures of a fitted drawing, for the quality benchmark and the fit's report: the
+fit's speed peaks, their agreement with the recorded human motion when the input carries
+time stamps (:mod:`inkmotion.evaluation.human`, the paper's Fig. 2c), and the paper's
+evaluation ratios (:func:`inkmotion.evaluation.evaluate.compare`, section "Evaluation") on
+the drawing's longest path under the default robot limits.
+
+Speed peaks are counted per path with :func:`inkmotion.evaluation.metrics.speed_peaks`
+(prominence 5 % of that path's peak speed) on the plan sampled uniformly in time, and
+summed over the paths: a sparse, human-like plan has about one peak per sub-movement, a
+plan whose lognormals merge into a spline has far fewer.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: the robot limits of the evaluation ratios (the setup's defaults, m/s and m/s²)
+V_MAX = 0.25
+A_MAX = 2.5
+#: sampling rate of the evaluation's timings in the benchmark, Hz
+RATE = 500.0
+
+
+def fit_speed_peaks(drawing: Any, prominence: float = 0.05) -> int:
+    """Speed peaks of every path of ``drawing`` (a Drawing), summed (module docstring)."""
+    from inkmotion.evaluation.metrics import speed_peaks
+    from inkmotion.outputs.sampling import sample
+
+    total = 0
+    for plan in drawing.plans:
+        s = sample(plan)
+        dt = float(s.t[1] - s.t[0]) if len(s.t) > 1 else 1.0
+        padded = np.concatenate(([0.0], s.speed, [0.0]))  # the pen at rest before and after
+        total += len(speed_peaks(padded, dt, prominence=prominence))
+    return total
+
+
+def recorded_agreement(source: str, drawing: Any, png: Path) -> dict[str, Any] | None:
+    """Recorded duration and peaks, fit peaks matched to them and their mean offset along
+    the trace, when ``source`` is a file whose points carry time stamps (else None); the
+    plot of both speed profiles goes to ``png``."""
+    from inkmotion.evaluation.human import human_agreement_from_files
+    from inkmotion.geometry.read import is_scheme
+
+    if is_scheme(source) or not Path(source).is_file():
+        return None
+    result = human_agreement_from_files(source, drawing, png)
+    if not result.get("has_times"):
+        return None
+    return dict(result["total"])
+
+
+def evaluation_ratios(drawing: Any) -> dict[str, float]:
+    """The paper's ratios method/ΣΛ (> 1: ΣΛ better) of duration, MSJ and LDJ for minimum
+    jerk and time-optimal timing of the longest path, at :data:`V_MAX`, :data:`A_MAX`."""
+    from inkmotion.evaluation.evaluate import choose_path, compare, paper_scale
+
+    plan = drawing.plans[choose_path(drawing, -1)]
+    c = compare(plan, V_MAX, A_MAX, paper_scale(drawing.canvas), RATE)
+    short = {"minimum-jerk": "minjerk", "time-optimal": "totg"}
+    return {f"{short[m]}_{k}": v for m, r in c.ratios.items() for k, v in r.items()}
+
+
+def item_figures(item_dir: Path, source: str, *, ratios: bool = True) -> dict[str, Any]:
+    """The motion figures of the fit in ``item_dir`` (its plan.json) of ``source``:
+    ``fit_speed_peaks``; with time stamps ``recorded_peaks``, ``matched_peaks``,
+    ``recorded_duration_s``, ``peak_offset`` (normalised arc length) and human_speeds.png;
+    with ``ratios`` the evaluation ratios (``minjerk_duration``, ..., ``totg_ldj``)."""
+    from inkmotion.sigma_lognormal import Drawing
+
+    drawing = Drawing.load(Path(item_dir) / "plan.json")
+    out: dict[str, Any] = {"fit_speed_peaks": fit_speed_peaks(drawing)}
+    human = recorded_agreement(source, drawing, Path(item_dir) / "human_speeds.png")
+    if human is not None:
+        out.update(recorded_peaks=human["recorded_peaks"], matched_peaks=human["matched_peaks"],
+                   recorded_duration_s=human["recorded_duration_s"],
+                   peak_offset=human["mean_position_offset"])
+    if ratios:
+        out.update(evaluation_ratios(drawing))
+    return out
