@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 
 def inkmotion(*args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
@@ -32,3 +34,25 @@ def test_evaluate_writes_the_table_and_plots(tmp_path: Path) -> None:
     assert methods["time-optimal"]["duration"] < methods["sigma-lognormal"]["duration"]
     assert doc["ratios"]["time-optimal"]["duration"] < 1
     assert "time-optimal/ΣΛ" in res.stderr  # the table on the terminal
+
+
+def test_msj_at_equal_duration_removes_the_time_scaling() -> None:
+    """The same path timed k× slower: MSJ falls by k⁶, LDJ is unchanged, and the ratio of
+    MSJ·T⁶ is 1 (up to the sampling)."""
+    import numpy as np
+
+    from inkmotion.evaluation import metrics as M
+    from inkmotion.evaluation.evaluate import ratio_row
+
+    def figures(duration: float) -> dict[str, float]:
+        tau = np.linspace(0.0, 1.0, 2001)
+        s = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+        xy = np.column_stack([np.cos(2 * s), np.sin(3 * s)])
+        return M.trajectory_metrics(xy, duration / 2000)
+
+    slow, fast = figures(2.0), figures(1.0)
+    r = ratio_row(fast, slow)
+    assert r["duration"] == 0.5
+    assert r["msj"] == pytest.approx(64.0, rel=1e-6)
+    assert r["ldj"] == pytest.approx(1.0, rel=1e-9)
+    assert r["msj_equal_duration"] == pytest.approx(1.0, rel=1e-6)

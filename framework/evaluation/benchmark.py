@@ -65,9 +65,11 @@ COLUMNS: tuple[tuple[str, str, str, str], ...] = (
     ("minjerk_duration", "MJ/ΣΛ T", "", "minimum-jerk duration / ΣΛ's (> 1: ΣΛ faster)"),
     ("minjerk_msj", "MJ/ΣΛ MSJ", "", "> 1: ΣΛ smoother (paper: < 1)"),
     ("minjerk_ldj", "MJ/ΣΛ LDJ", "", "> 1: ΣΛ smoother (paper: > 1)"),
+    ("minjerk_msj_equal_duration", "MJ/ΣΛ MSJ·T⁶", "", "MSJ at equal duration, > 1: ΣΛ smoother"),
     ("totg_duration", "TO/ΣΛ T", "", "time-optimal duration / ΣΛ's (paper: < 1)"),
     ("totg_msj", "TO/ΣΛ MSJ", "", "> 1: ΣΛ smoother (paper: > 1)"),
     ("totg_ldj", "TO/ΣΛ LDJ", "", "> 1: ΣΛ smoother (paper: > 1)"),
+    ("totg_msj_equal_duration", "TO/ΣΛ MSJ·T⁶", "", "MSJ at equal duration, > 1: ΣΛ smoother"),
 )
 SUMMARY_FILES = ("summary.json", "summary.csv", "summary.md", "summary.html")
 

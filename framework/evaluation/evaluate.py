@@ -8,7 +8,8 @@ the timings run in px with v_max/s and a_max/s², and every metric is reported i
 Ratios (> 1 means ΣΛ is better, as in the paper's table): duration T_m / T_ΣΛ (the ratio of
 inverse durations ΣΛ over method), MSJ_m / MSJ_ΣΛ (lower MSJ is smoother), LDJ_m / LDJ_ΣΛ
 (LDJ is negative and nearer 0 when smoother, so a less smooth method has the larger
-magnitude).
+magnitude). MSJ also at equal duration, MSJ_m·T_m⁶ / (MSJ_ΣΛ·T_ΣΛ⁶): under the same limits
+a faster timing has a larger MSJ for being faster alone (MSJ ∝ T⁻⁶), which this removes.
 """
 
 from __future__ import annotations
@@ -92,11 +93,19 @@ def compare(plan: Any, v_max: float, a_max: float, scale: float, rate: float = 1
         progress(3)
     timed = dict(zip(METHODS, timings, strict=True))
     table = {name: method_figures(path, scale, rate) for name, path in timed.items()}
-    ratios = {name: {k: table[name][k] / table[METHODS[0]][k]
-                     for k in ("duration", "msj", "ldj")} for name in METHODS[1:]}
+    ratios = {name: ratio_row(table[name], table[METHODS[0]]) for name in METHODS[1:]}
     holds = {f"{m}/{k}": (None if want is None else bool((ratios[m][k] > 1) == want))
              for (m, k), want in PAPER_DIRECTION.items()}
     return Comparison(timed, table, ratios, holds)
+
+
+def ratio_row(method: dict[str, float], sigma: dict[str, float]) -> dict[str, float]:
+    """Ratios method/ΣΛ of duration, MSJ and LDJ, and of MSJ·T⁶ (``msj_equal_duration``:
+    MSJ scales as T⁻⁶ under a uniform time scaling, so this compares the two as if both
+    lasted as long: a faster timing is not penalised for being faster)."""
+    out = {k: method[k] / sigma[k] for k in ("duration", "msj", "ldj")}
+    out["msj_equal_duration"] = out["msj"] * out["duration"] ** 6
+    return out
 
 
 def run_evaluate(job: Job) -> dict[str, Any]:
@@ -151,14 +160,15 @@ def human_figures(recording: str, drawing: Any, folder: Path) -> dict[str, Any]:
 
 def write_csv(path: Path, table: dict, ratios: dict) -> None:
     """evaluation.csv: one row per method (duration, MSJ, LDJ, ...) and the ratio rows."""
-    keys = ["duration", "inverse_duration", "peak_speed", "speed_peaks", "msj", "ldj"]
+    keys = ["duration", "inverse_duration", "peak_speed", "speed_peaks", "msj", "ldj",
+            "msj_equal_duration"]
     lines = ["row," + ",".join(keys)]
     for name, figures in table.items():
         lines.append(name + "," + ",".join(f"{figures.get(k, float('nan')):.6g}"
                                            for k in keys))
     for name, r in ratios.items():
         row = {"duration": r["duration"], "inverse_duration": 1.0 / r["duration"],
-               "msj": r["msj"], "ldj": r["ldj"]}
+               "msj": r["msj"], "ldj": r["ldj"], "msj_equal_duration": r["msj_equal_duration"]}
         lines.append(f"{name}/sigma-lognormal," + ",".join(
             f"{row[k]:.6g}" if k in row else "" for k in keys))
     path.write_text("\n".join(lines) + "\n")
@@ -169,11 +179,13 @@ def print_table(table: dict, ratios: dict) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    t = Table("", "duration s", "1/duration", "MSJ m²/s⁶", "LDJ", title="evaluation")
+    t = Table("", "duration s", "1/duration", "MSJ m²/s⁶", "LDJ", "MSJ·T⁶",
+              title="evaluation")
     for name, f in table.items():
         t.add_row(name, f"{f['duration']:.3f}", f"{f['inverse_duration']:.4f}",
-                  f"{f['msj']:.4g}", f"{f['ldj']:.3f}")
+                  f"{f['msj']:.4g}", f"{f['ldj']:.3f}", f"{f['msj'] * f['duration'] ** 6:.4g}")
     for name, r in ratios.items():
         t.add_row(f"{name}/ΣΛ (>1: ΣΛ better)", f"{r['duration']:.3f}",
-                  f"{1.0 / r['duration']:.3f}", f"{r['msj']:.3f}", f"{r['ldj']:.3f}")
+                  f"{1.0 / r['duration']:.3f}", f"{r['msj']:.3f}", f"{r['ldj']:.3f}",
+                  f"{r['msj_equal_duration']:.3f}")
     Console(stderr=True).print(t)
