@@ -3,9 +3,13 @@ image"): read the input, initialise one motor plan per stroke, optimise them thr
 differentiable renderer against the image loss and the smoothing cost, write the artifacts.
 
 Artifacts: plan.json, input.json, drawing.svg, drawing.png, overlay.png, speed.png,
-trajectory.csv (+ job.json, report.json and recording.rrd from the shell). The report
-holds steps, loss terms and T_end before and after, and the Chamfer distance between the
-input polylines and the fitted trajectory; its ``metrics`` go to the job store.
+trajectory.csv, human_speeds.png when the input has time stamps (+ job.json, report.json
+and recording.rrd from the shell). The report holds steps, loss terms and T_end before and
+after, the Chamfer distance between the input polylines and the fitted trajectory, the
+plan's size (sub-movements), the share of Δt at a clamp bound, the fit's speed peaks, the
+recorded ones when there are time stamps, and the record of each fit stage (the plan is
+edited between stages, :mod:`inkmotion.fitting.stages`); its ``metrics`` go to the job
+store.
 
 Importing this module imports no torch (the command line lists kinds at once).
 """
@@ -27,17 +31,22 @@ if TYPE_CHECKING:
 @dataclass
 class FitParams:
     """Parameters of a fit; defaults are the authors' (DESIGN.md § Fitting defaults) except
-    λ: with our renderer and MSE scale λ = 70 pins every Δt at its 0.1 floor and cuts
-    corners (49867.json: max Chamfer 6.0 px), while 20 reaches the same T_end (0.14×)
-    with a max of 0.9 px."""
+    where ``inkmotion benchmark`` over the real tags said otherwise, at the authors' plan
+    density (DCE relevance 2.5, 29–32 sub-movements on the paper's tags): 600 steps (300
+    left T_end at 0.50–0.52× and the max Chamfer at 5–7 px; 600 reach 0.47–0.49× and
+    3–4 px), λ = 45 and w_σ = 10 (the authors' w_σ = 50 forces equal overlaps along a
+    path, so corners and smooth runs get the same Δt: 10 lets smooth runs overlap more at
+    the same fit; λ = 60 made strokes of temptTag-2010_7_29 swap ink, max 28 px), the
+    smoothing cost over the whole drawing, and two rounds of plan edits. Version-2 specs
+    keep the earlier defaults (:mod:`inkmotion.jobs.spec`)."""
 
-    steps: int = param(300, "Adam steps.", minimum=1, maximum=100_000)
+    steps: int = param(600, "Adam steps.", minimum=1, maximum=100_000)
     size: int = param(350, "Canvas longer side, px.", minimum=32, maximum=4096)
     width: float = param(3.0, "Stroke width, px.", minimum=0.01, maximum=256)
-    lambda_smooth: float = param(20.0, "Weight λ of the smoothing (minimum-time) cost.",
+    lambda_smooth: float = param(45.0, "Weight λ of the smoothing (minimum-time) cost.",
                                  minimum=0, flag="--lambda")
     w_image: float = param(200.0, "Weight of the image loss.", minimum=0)
-    w_sigma: float = param(50.0, "Weight of Var(Δt) in the smoothing cost.", minimum=0)
+    w_sigma: float = param(10.0, "Weight of Var(Δt) in the smoothing cost.", minimum=0)
     w_canvas: float = param(1.0, "Weight of the term keeping targets on the canvas.",
                             minimum=0)
     lr_points: float = param(2.0, "Learning rate of the virtual targets, px.", minimum=0)
@@ -49,6 +58,17 @@ class FitParams:
                             minimum=0, maximum=1)
     samples_per_move: int = param(5, "Bézier segments per lognormal on the fitting grid.",
                                   minimum=1, maximum=100)
+    smooth_over: str = param("drawing", "Normalise the minimum-time cost over the whole "
+                             "drawing (ΣT_end/Σm) or per path (the authors': mean T_end/m).",
+                             choices=("drawing", "path"))
+    targets: str = param("default", "Sub-movements: 'default' (the initialiser's sparse "
+                         "plan, refined), N (about N in all) or 'auto' (the fewest that "
+                         "reach --max-error).")
+    refine: int = param(2, "Edits of the plan between fit stages in 'default' mode (targets "
+                        "where the fit misses most, merges where Δt is pinned); 0: none.",
+                        minimum=0, maximum=10)
+    max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
+                             minimum=0.05)
     reader: PluginChoice | None = plugin_param(
         "reader", None, "Reader plugin (default: the first that accepts the input).")
     initialiser: PluginChoice = plugin_param("initialiser", "dce", "Initialiser plugin.")
@@ -60,6 +80,29 @@ class FitParams:
     def validate(self) -> None:
         if not self.losses:
             raise SpecError("The fit job needs at least one image loss (e.g. --loss mse).")
+        target_count(self.targets)  # refuses anything but default, auto or a count
+
+    def refine_settings(self) -> Any:
+        """How the fit edits its plan between stages (:mod:`inkmotion.fitting.stages`)."""
+        from inkmotion.fitting.stages import RefineSettings
+
+        count = target_count(self.targets)
+        mode = self.targets if count is None else "fixed"
+        return RefineSettings(mode=mode, rounds=self.refine, max_error=self.max_error)
+
+
+def target_count(targets: str) -> int | None:
+    """The N of ``--targets N``; None for 'default' and 'auto'; a SpecError otherwise."""
+    if targets in ("default", "auto"):
+        return None
+    try:
+        n = int(targets)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise SpecError(f"--targets {targets!r} must be 'default', 'auto' or a number of "
+                        "sub-movements of at least 1, e.g. --targets 30.")
+    return n
 
 
 class FitKind:
@@ -74,7 +117,9 @@ class FitKind:
         "inkmotion run fit text:hello --out results/hello",
         "inkmotion run fit ../shared/data/gml/49867.json --out results/49867 --steps 300",
         "inkmotion run fit tag.gml --out results/smoother --lambda 150 --size 500",
-        "inkmotion run fit tag.gml --out results/sparse --dce-threshold 20",
+        "inkmotion run fit tag.gml --out results/sparse --dce-relevance 5",
+        "inkmotion run fit tag.gml --out results/thirty --targets 30",
+        "inkmotion run fit tag.gml --out results/auto --targets auto --max-error 1.5",
     )
 
     def steps(self, params: FitParams) -> int:
@@ -86,10 +131,14 @@ class FitKind:
 
 def _fit(job: Job) -> dict[str, Any]:
     """Read, initialise, optimise, write the artifacts; return the report."""
+    import math
+
+    import numpy as np
     import torch
 
     from inkmotion.fitting.objective import Objective, Weights
-    from inkmotion.fitting.optimise import OptimiserSettings, optimise
+    from inkmotion.fitting.optimise import OptimiserSettings
+    from inkmotion.fitting.stages import fit_in_stages
     from inkmotion.geometry.read import read_input
     from inkmotion.plugin_host.protocols import JobInputs, Reference
 
@@ -100,9 +149,13 @@ def _fit(job: Job) -> dict[str, Any]:
     traces = traces.fit_to_canvas(p.size)
     canvas = (int(traces.width), int(traces.height))
     renderer = job.plugin(p.renderer)
-    plans = job.plugin(p.initialiser)(JobInputs(canvas, traces=traces), width=p.width,
-                                      dtype=dtype, device=job.device,
-                                      **job.options(p.initialiser))
+    initialise = job.plugin(p.initialiser)
+    options = dict(width=p.width, dtype=dtype, device=job.device, **job.options(p.initialiser))
+    plans = initialise(JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
+                       **options)
+    if p.targets == "auto":  # walk up from half the initialiser's density
+        start = max(len(plans), math.ceil(sum(pl.m for pl in plans) / 2))
+        plans = initialise(JobInputs(canvas, traces=traces, targets=start), **options)
     with torch.no_grad():
         target_segments = traces_to_segments(traces, dtype, job.device)
         widths = torch.full((len(target_segments),), p.width, dtype=dtype, device=job.device)
@@ -110,12 +163,16 @@ def _fit(job: Job) -> dict[str, Any]:
     losses = {c.name: job.plugin(c).prepare(Reference(image=target), **job.options(c))
               for c in p.losses}
     objective = Objective(renderer, losses, canvas, Weights(
-        p.lambda_smooth, p.w_image, p.w_sigma, p.w_canvas, p.samples_per_move))
-    settings = OptimiserSettings(p.steps, p.lr_points, p.lr_delta_t, p.lr_delta, p.lr_ac,
+        p.lambda_smooth, p.w_image, p.w_sigma, p.w_canvas, p.samples_per_move,
+        p.smooth_over))
+    steps = max(50, p.steps // 3) if p.targets == "auto" else p.steps  # per round in auto
+    settings = OptimiserSettings(steps, p.lr_points, p.lr_delta_t, p.lr_delta, p.lr_ac,
                                  p.lr_final)
     job.start(canvas, target, traces.strokes)
-    fit = optimise(plans, objective, settings, job.observers)
-    return _write(job, traces, fit, canvas, target)
+    strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
+    staged = fit_in_stages(plans, objective, settings, strokes, p.refine_settings(),
+                           job.observers)
+    return _write(job, traces, staged, canvas, target)
 
 
 def traces_to_segments(traces: Any, dtype: Any, device: Any) -> Any:
@@ -130,10 +187,11 @@ def traces_to_segments(traces: Any, dtype: Any, device: Any) -> Any:
     return torch.cat(parts)
 
 
-def _write(job: Job, traces: Any, fit: Any, canvas: tuple[int, int], target: Any) -> dict:
+def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: Any) -> dict:
     """The fit's artifacts (from CPU copies of the plans) and its report."""
     import json
 
+    from inkmotion.evaluation.fit_motion import delta_t_at_clamp, fit_speed_peaks
     from inkmotion.geometry.bezier import bezier_segments
     from inkmotion.geometry.chamfer import chamfer
     from inkmotion.outputs import (
@@ -147,29 +205,40 @@ def _write(job: Job, traces: Any, fit: Any, canvas: tuple[int, int], target: Any
     from inkmotion.sigma_lognormal import Drawing
 
     folder = job.folder
+    fit = staged.result
     plans = [on_cpu(p) for p in fit.plans]
     size = (float(canvas[0]), float(canvas[1]))
     chamfer_mean, chamfer_max = chamfer(traces.strokes, [sample(p).positions for p in plans])
-    t0, t1 = sum(fit.initial_t_end), sum(fit.final_t_end)
+    t0, t1 = sum(staged.initial_t_end), sum(fit.final_t_end)
+    drawing = Drawing(size, plans)
     metrics = {"chamfer_mean_px": chamfer_mean, "chamfer_max_px": chamfer_max,
                "t_end_ratio": t1 / t0 if t0 > 0 else float("nan"),
-               "moves": sum(p.m for p in plans)}
+               "moves": sum(p.m for p in plans), "delta_t_at_clamp": delta_t_at_clamp(plans),
+               "fit_speed_peaks": fit_speed_peaks(drawing)}
     report = {
-        "steps": fit.steps,
-        "fit_s": round(fit.wall_s, 3),
+        "steps": staged.steps,
+        "fit_s": round(staged.wall_s, 3),
         "paths": len(plans),
         "moves": metrics["moves"],
         "canvas": {"width": canvas[0], "height": canvas[1]},
-        "initial_loss": fit.initial_terms,
+        "initial_loss": staged.initial_terms,
         "final_loss": fit.final_terms,
         "initial_t_end": t0,
         "final_t_end": t1,
         "t_end_ratio": metrics["t_end_ratio"],
         "chamfer_mean_px": chamfer_mean,
         "chamfer_max_px": chamfer_max,
+        "delta_t_at_clamp": metrics["delta_t_at_clamp"],
+        "speed_peaks": metrics["fit_speed_peaks"],
+        "stages": staged.stages,
         "metrics": metrics,
     }
-    Drawing(size, plans).save(folder / "plan.json")
+    recorded = _recorded_peaks(job, drawing)
+    if recorded is not None:
+        report["recorded"] = recorded
+        metrics["recorded_peaks"] = recorded["recorded_peaks"]
+        metrics["matched_peaks"] = recorded["matched_peaks"]
+    drawing.save(folder / "plan.json")
     (folder / "input.json").write_text(json.dumps(
         {"canvas": {"width": canvas[0], "height": canvas[1]},
          "traces": [s.tolist() for s in traces.strokes]}))
@@ -182,6 +251,16 @@ def _write(job: Job, traces: Any, fit: Any, canvas: tuple[int, int], target: Any
     write_speed_plot(folder / "speed.png", plans)
     write_trajectory_csv(folder / "trajectory.csv", plans)
     return report
+
+
+def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:
+    """The recorded motion's duration and speed peaks and how the fit's match them, when the
+    input carries time stamps (the evaluation's human agreement; its plot is
+    human_speeds.png); None otherwise."""
+    from inkmotion.evaluation.fit_motion import recorded_agreement
+
+    return recorded_agreement(job.spec.inputs["drawing"], drawing,
+                              job.folder / "human_speeds.png")
 
 
 @hookimpl

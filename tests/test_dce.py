@@ -1,4 +1,7 @@
-"""DCE initialiser: salient points of simple shapes, monotonicity, radius, registration."""
+"""DCE initialiser: salient points of simple shapes, monotonicity, radius, registration,
+the canvas-free density, a count of targets, and the initial turning angles."""
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,7 +11,16 @@ import inkmotion
 from inkmotion.errors import SpecError
 from inkmotion.geometry.traces import Traces
 from inkmotion.plugin_host.protocols import JobInputs
-from inkmotion.plugins.dce import dce, dce_indices
+from inkmotion.plugins.dce import (
+    dce,
+    dce_indices,
+    initial_turns,
+    moves_at,
+    relevance_threshold,
+    threshold_for_moves,
+)
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "gml"
 
 
 def _square(noise: float = 0.05, per_side: int = 50, seed: int = 0) -> np.ndarray:
@@ -70,7 +82,7 @@ def test_plugin_registered_and_makes_plans() -> None:
     assert init.name == "dce" and init.description
     traces = Traces([_square(), np.column_stack((np.linspace(0, 9, 30), np.zeros(30)))])
     plans = init(JobInputs((20, 20), traces=traces), threshold=1.0, width=2.0,
-                 dtype=torch.float64)
+                 dtype=torch.float64, bend=False)
     assert [p.m for p in plans] == [4, 1]
     p = plans[0]
     assert p.points.dtype == torch.float64 and p.width == 2.0
@@ -82,11 +94,69 @@ def test_plugin_registered_and_makes_plans() -> None:
         init(JobInputs((20, 20), caption="a cat"))
 
 
-@pytest.mark.parametrize("n", [5000])
-def test_long_stroke_is_fast(n: int) -> None:
-    import time
+def test_a_long_random_walk_keeps_its_ends_and_order() -> None:
+    p = np.cumsum(np.random.default_rng(2).normal(size=(5000, 2)), axis=0)
+    kept = dce_indices(p, 1.0)
+    assert kept[0] == 0 and kept[-1] == len(p) - 1 and np.all(np.diff(kept) > 0)
+    assert 2 < len(kept) < len(p)
 
-    p = np.cumsum(np.random.default_rng(2).normal(size=(n, 2)), axis=0)
-    t = time.perf_counter()
-    dce(p, 1.0)
-    assert time.perf_counter() - t < 2.0
+
+def _wiggle(scale: float) -> np.ndarray:
+    """A wavy stroke of 400 points, ``scale`` px across."""
+    t = np.linspace(0.0, 1.0, 400)
+    return scale * np.column_stack((t, 0.15 * np.sin(9 * t) + 0.05 * np.sin(31 * t)))
+
+
+def test_the_same_drawing_at_any_canvas_size_gets_the_same_plan() -> None:
+    init = inkmotion.plugin("initialiser", "dce")
+    counts = []
+    for size in (350, 2000):
+        traces = Traces([_wiggle(size)])
+        plans = init(JobInputs((size, size), traces=traces), dtype=torch.float64)
+        counts.append(plans[0].m)
+        assert plans[0].points[:, 0].max() == pytest.approx(size)
+    assert counts[0] == counts[1] and counts[0] > 2
+    # the absolute threshold in px·rad does not scale: it keeps many more at 2000 px
+    absolute = [init(JobInputs((s, s), traces=Traces([_wiggle(s)])), threshold=30.0,
+                     dtype=torch.float64)[0].m for s in (350, 2000)]
+    assert absolute[1] > absolute[0]
+
+
+def test_relevance_is_the_authors_measure() -> None:
+    """K* = relevance·2·size·π/180: a vertex of turning β° between arms l is kept when
+    β·l/2 / size exceeds the relevance (their demo's measure, l1·l2/(l1+l2) = l/2)."""
+    size, arm = 350.0, 40.0
+    for beta, kept in ((20.0, False), (50.0, True)):  # 20·20/350 = 1.14, 50·20/350 = 2.86
+        b = np.radians(beta)
+        p = np.array([[0.0, 0.0], [arm, 0.0], [arm + arm * np.cos(b), arm * np.sin(b)]])
+        assert (len(dce_indices(p, relevance_threshold(2.5, size))) == 3) == kept
+
+
+def test_a_count_of_targets_is_met() -> None:
+    strokes = [_wiggle(350), _wiggle(200) + 50]
+    for n in (4, 12, 30):
+        got = moves_at(strokes, threshold_for_moves(strokes, n, 350))
+        assert abs(got - n) <= max(1, n // 10), (n, got)
+    init = inkmotion.plugin("initialiser", "dce")
+    plans = init(JobInputs((350, 350), traces=Traces(strokes), targets=12), dtype=torch.float64)
+    assert abs(sum(p.m for p in plans) - 12) <= 1
+
+
+@pytest.mark.parametrize("delta", [0.7, -1.2, 0.05, 0.0])
+def test_initial_turns_recover_the_arc_of_a_sub_movement(delta: float) -> None:
+    from inkmotion.outputs.sampling import sample
+    from inkmotion.sigma_lognormal.plan import MotorPlan
+
+    plan = MotorPlan.from_points(torch.tensor([[10.0, 20.0], [100.0, 60.0]]),
+                                 delta=delta, dtype=torch.float64)
+    arc = sample(plan, 400).positions
+    assert initial_turns(arc, np.array([0, len(arc) - 1]))[0] == pytest.approx(delta, abs=0.01)
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data is absent")
+def test_the_authors_density_on_the_paper_tags() -> None:
+    """The default relevance 2.5 keeps 29 targets' worth of sub-movements on 49867.json."""
+    from inkmotion.geometry.read import read_input
+
+    traces = read_input(str(SHARED / "49867.json")).fit_to_canvas(350).validated()
+    assert moves_at(traces.strokes, relevance_threshold(2.5, 350)) == 29

@@ -46,14 +46,40 @@ def test_v1_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     new = json.loads((tmp_path / "o" / "plan.json").read_text())
     assert new == old
     written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
-    assert written["version"] == 2 and written["params"]["initialiser"]["threshold"] == 1.0
+    assert written["version"] == 3 and written["params"]["initialiser"]["threshold"] == 1.0
+    assert written["params"]["initialiser"]["bend"] is False
+    assert written["params"]["refine"] == 0 and written["params"]["smooth_over"] == "path"
+
+
+def test_a_v2_spec_keeps_the_v2_defaults() -> None:
+    """A version-2 spec that leaves the changed defaults out runs with version 2's; one that
+    gives them keeps what it gives; other kinds are unchanged."""
+    bare = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
+                              "params": {}})
+    assert bare.version == 3
+    assert bare.params["steps"] == 300 and bare.params["lambda_smooth"] == 20.0
+    assert bare.params["w_sigma"] == 50.0 and bare.params["refine"] == 0
+    assert bare.params["smooth_over"] == "path"
+    assert bare.params["initialiser"] == {"name": "dce", "threshold": 1.0, "bend": False}
+    given = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
+                               "params": {"steps": 9, "initialiser": {"name": "dce",
+                                                                      "threshold": 20.0}}})
+    assert given.params["steps"] == 9
+    assert given.params["initialiser"] == {"name": "dce", "threshold": 20.0, "bend": False}
+    line = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
+                              "params": {"initialiser": "line"}})
+    assert line.params["initialiser"] == "line"
+    tag = JobSpec.from_dict({"version": 2, "kind": "tag", "inputs": {"caption": "x"},
+                             "params": {"steps": 5}})
+    assert tag.params == {"steps": 5} and tag.version == 3
 
 
 def test_job_json_holds_every_parameter_and_option() -> None:
     job = resolve(JobSpec("fit", {"drawing": "text:hi"}, params={"steps": 5}))
     full = job.full_spec().params
     assert full["steps"] == 5 and full["size"] == 350
-    assert full["initialiser"] == {"name": "dce", "threshold": 1.0}
+    assert full["initialiser"] == {"name": "dce", "relevance": 2.5, "threshold": None,
+                                   "bend": True}
     assert full["renderer"] == {"name": "raster"} and full["losses"] == [{"name": "mse"}]
     assert to_dict(job.params)["initialiser"] == {"name": "dce"}
 
@@ -84,8 +110,8 @@ def test_bad_spec_fields() -> None:
         resolve(JobSpec("fit", {}))
     with pytest.raises(SpecError, match="has no input.s. photo"):
         resolve(JobSpec("fit", {"drawing": "text:hi", "photo": "x.png"}))
-    with pytest.raises(SpecError, match="spec version 3 is not supported"):
-        JobSpec.from_dict({"version": 3, "kind": "fit", "inputs": {}})
+    with pytest.raises(SpecError, match="spec version 4 is not supported"):
+        JobSpec.from_dict({"version": 4, "kind": "fit", "inputs": {}})
     with pytest.raises(SpecError, match="seed=-1 must be a non-negative integer"):
         JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {}, "seed": -1})
 
@@ -105,7 +131,7 @@ def test_config_then_options_override(tmp_path: Path) -> None:
     spec = spec_from_options("fit", [], {"steps": 7}, config=V1 / "job.json")
     assert spec.inputs == {"drawing": "text:hi"} and spec.params["steps"] == 7
     assert spec.params["size"] == 200
-    assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0}
+    assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0, "bend": False}
 
 
 # -- registration: protocols, duplicates, all or nothing ---------------------------------

@@ -4,7 +4,8 @@ fits are, per item and over the set (``inkmotion benchmark``).
 It answers "did this change make fitting better?": run it before and after on the same
 inputs and compare ``summary.json``. Per item it reports
 
-- ``moves`` m (sub-movements over all paths), the Chamfer distance between the input
+- ``moves`` m (sub-movements over all paths) beside ``authors_moves``, the m of the
+  authors' DCE density on the same input, and the Chamfer distance between the input
   polylines and the fitted trajectory (mean and max, px), from the fit's report;
 - ``iou``: intersection over union of the rendered fit and the rendered target, both drawn
   by the 'raster' renderer at the fit's canvas and stroke width and thresholded at a
@@ -44,11 +45,10 @@ from inkmotion.errors import InkmotionError, InputError, SpecError
 DRAWING_SUFFIXES = (".json", ".gml", ".svg")
 #: coverage above which a pixel counts as ink for the IoU
 INK_THRESHOLD = 0.5
-#: |Δt − bound| below which an overlap counts as clamped
-CLAMP_TOLERANCE = 1e-6
 #: the per-item figures the benchmark itself measures: key, column label, unit, meaning
 COLUMNS: tuple[tuple[str, str, str, str], ...] = (
     ("moves", "m", "", "sub-movements over all paths"),
+    ("authors_moves", "authors' m", "", "sub-movements of the authors' DCE (relevance 2.5)"),
     ("chamfer_mean_px", "Chamfer mean", "px", "input polylines vs fitted trajectory"),
     ("chamfer_max_px", "Chamfer max", "px", "input polylines vs fitted trajectory"),
     ("iou", "IoU", "", "rendered fit vs rendered target, coverage > 0.5"),
@@ -192,11 +192,11 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     import torch
 
     import inkmotion
+    from inkmotion.evaluation.fit_motion import delta_t_at_clamp
     from inkmotion.geometry.traces import Traces
     from inkmotion.json_files import read_json
     from inkmotion.plugins.fit import traces_to_segments
     from inkmotion.sigma_lognormal import Drawing
-    from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
 
     source = read_json(item_dir / "input.json", InputError, "input file")
     width, height = int(source["canvas"]["width"]), int(source["canvas"]["height"])
@@ -216,12 +216,17 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     a, b = fitted > INK_THRESHOLD, target > INK_THRESHOLD
     union = int((a | b).sum())
     iou = float((a & b).sum()) / union if union else float("nan")
-    lo, hi = DELTA_T_RANGE
-    overlaps = torch.cat([p.delta_t[1:] for p in drawing.plans])  # Δt_1 is unused
-    clamped = (((overlaps - lo).abs() <= CLAMP_TOLERANCE)
-               | ((overlaps - hi).abs() <= CLAMP_TOLERANCE))
-    share = int(clamped.sum()) / len(overlaps) if len(overlaps) else 0.0
-    return {"iou": iou, "delta_t_at_clamp": share}
+    return {"iou": iou, "delta_t_at_clamp": delta_t_at_clamp(drawing.plans),
+            "authors_moves": authors_moves(traces, max(width, height))}
+
+
+def authors_moves(traces: Any, size: float) -> int:
+    """Sub-movements the authors' DCE gives the input (their demo: relevance, turning
+    degrees × l1·l2/(l1+l2) ÷ canvas size, above 2.5), the density to compare m with."""
+    from inkmotion.plugins.dce import DEFAULT_RELEVANCE, moves_at, relevance_threshold
+
+    strokes = traces.validated().strokes
+    return moves_at(strokes, relevance_threshold(DEFAULT_RELEVANCE, size))
 
 
 def motion_figures(item_dir: Path, source: str) -> dict[str, Any]:

@@ -38,6 +38,22 @@ def fit_speed_peaks(drawing: Any, prominence: float = 0.05) -> int:
     return total
 
 
+def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
+    """Share of the overlaps Δt_i (i ≥ 2; Δt_1 is unused) within ``tolerance`` of a clamp
+    bound: a high share means the smoothing cost pins the plan, which then stops being a
+    model of movement (0 when no path has two sub-movements)."""
+    import torch
+
+    from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
+
+    overlaps = torch.cat([p.delta_t.detach().cpu().double()[1:] for p in plans])
+    if not len(overlaps):
+        return 0.0
+    lo, hi = DELTA_T_RANGE
+    clamped = ((overlaps - lo).abs() <= tolerance) | ((overlaps - hi).abs() <= tolerance)
+    return int(clamped.sum()) / len(overlaps)
+
+
 def recorded_agreement(source: str, drawing: Any, png: Path) -> dict[str, Any] | None:
     """Recorded duration and peaks, fit peaks matched to them and their mean offset along
     the trace, when ``source`` is a file whose points carry time stamps (else None); the

@@ -46,6 +46,7 @@ class Weights:
     w_sigma: float = 50.0
     w_canvas: float = 1.0
     samples_per_move: int = 5
+    smooth_over: str = "path"  # "path" (the authors') or "drawing", see fitting.losses
 
 
 @dataclass
@@ -106,7 +107,8 @@ class Objective:
         for name, fn in self.image_losses.items():
             terms[name] = fn(rendered)
             image = image + terms[name]
-        terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma, layout)
+        terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma, layout,
+                                         self.p.smooth_over)
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
         total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
                  + self.p.w_canvas * terms["canvas"])

@@ -42,6 +42,10 @@ class OptimiserSettings:
     lr_delta: float = 0.1
     lr_ac: float = 0.0  # 0 keeps Ac fixed
     lr_final: float = 0.1  # cosine decay to this fraction
+    #: the decay's position: these steps run from step ``schedule_start`` of a schedule of
+    #: ``schedule_total`` steps (None: ``steps``), so the stages of one fit share a decay
+    schedule_start: int = 0
+    schedule_total: int | None = None
     check_every: int = 25  # read the NaN flag from the device every k steps
     #: px per step of a 3-D plan's radius. Adam moves a parameter by about its learning
     #: rate per step, so 0.1 px crosses the whole default range (3.5 px) in ~40 steps of a
@@ -192,7 +196,8 @@ def optimise(
             batch = assemble()  # a new graph from the updated leaves
         ev = objective(batch)
         ev.total.backward()
-        optimiser.step(cosine(step - 1, settings.steps, settings.lr_final))
+        optimiser.step(cosine(settings.schedule_start + step - 1,
+                              settings.schedule_total or settings.steps, settings.lr_final))
         with torch.no_grad():
             leaves["delta_t"].clamp_(*DELTA_T_RANGE)
             leaves["delta"].clamp_(*DELTA_RANGE)

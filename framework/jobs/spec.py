@@ -1,9 +1,9 @@
-"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 2).
+"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 3).
 
 A job is one validated spec, plain JSON (job.json), so it can travel through the broker
 and reproduce a run::
 
-    {"version": 2, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
+    {"version": 3, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
      "device": "auto", "record_every": 10,
      "params": {"steps": 300, ..., "initialiser": {"name": "dce", "threshold": 1.0},
                 "renderer": {"name": "raster"}, "losses": [{"name": "mse"}]}}
@@ -12,7 +12,11 @@ and reproduce a run::
 :mod:`inkmotion.jobs.params`) with each plugin's options nested under its name. Version 1
 files (flat ``input``, ``initialiser``, ``renderer``, ``losses``, ``reader`` and a flat
 ``params`` with ``dce_threshold`` and ``record_every``) are upgraded on load, so their
-job.json still reproduces their run.
+job.json still reproduces their run. Version 2 differs from 3 only in the fit's defaults
+(3: the sparse, refined plan of issue 10 — DCE at the authors' canvas-relative relevance
+with initial turning angles, plan edits between stages, the drawing-wide smoothing cost,
+600 steps, λ = 45, w_σ = 10); :func:`upgrade_v2` writes version 2's defaults into a
+version-2 fit spec wherever it leaves a field out, so it runs as it did.
 """
 
 from __future__ import annotations
@@ -26,7 +30,12 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 2
+SPEC_VERSION = 3
+#: the fit parameters whose version-2 defaults differ from version 3's
+V2_FIT_DEFAULTS = {"steps": 300, "lambda_smooth": 20.0, "w_sigma": 50.0, "smooth_over": "path",
+                   "targets": "default", "refine": 0}
+#: the dce initialiser's options of version 2 (its threshold was absolute, px·rad)
+V2_DCE_DEFAULTS = {"threshold": 1.0, "bend": False}
 DEFAULT_DEVICE = "auto"
 _FIELDS = ("version", "kind", "inputs", "seed", "device", "record_every", "params")
 
@@ -61,15 +70,17 @@ class JobSpec:
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "job spec") -> JobSpec:
-        """A spec from its JSON form (version 1 or 2, or a job.json wrapping it)."""
+        """A spec from its JSON form (version 1, 2 or 3, or a job.json wrapping it)."""
         if not isinstance(d, dict):
             raise SpecError(f"{source}: a job spec must be a JSON object.")
         d = dict(d.get("spec", d))  # a job.json wraps the spec
         if d.get("version", 1) == 1 and "inputs" not in d:
             d = upgrade_v1(d, source)
+        if d.get("version") == 2:
+            d = upgrade_v2(d, source)
         if d.get("version") != SPEC_VERSION:
             raise SpecError(f"{source}: spec version {d.get('version')!r} is not supported; "
-                            f"this inkmotion reads versions 1 and {SPEC_VERSION}.")
+                            f"this inkmotion reads versions 1 to {SPEC_VERSION}.")
         unknown = sorted(set(d) - set(_FIELDS))
         if unknown:
             raise SpecError(f"{source}: unknown field(s) {', '.join(unknown)}; known fields "
@@ -100,8 +111,33 @@ def _check_types(spec: JobSpec, source: str) -> None:
         raise SpecError(f"{source}: device must be cpu, cuda, cuda:N or auto.")
 
 
+def upgrade_v2(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
+    """A version-2 spec as version 3: a fit spec gets version 2's defaults wherever it
+    leaves a parameter out (:data:`V2_FIT_DEFAULTS`; its dce initialiser
+    :data:`V2_DCE_DEFAULTS`, unless it gives a relevance), so it reproduces its run.
+    Other kinds are unchanged."""
+    d = copy.deepcopy(d)
+    d["version"] = SPEC_VERSION
+    if d.get("kind", "fit") != "fit":
+        return d
+    params = d.get("params")
+    if not isinstance(params, dict):
+        return d  # refused by the type check
+    for key, value in V2_FIT_DEFAULTS.items():
+        params.setdefault(key, value)
+    init = params.get("initialiser", {"name": "dce"})
+    init = {"name": init} if isinstance(init, str) else init
+    if isinstance(init, dict) and init.get("name") == "dce":
+        if "relevance" not in init:
+            init.setdefault("threshold", V2_DCE_DEFAULTS["threshold"])
+        init.setdefault("bend", V2_DCE_DEFAULTS["bend"])
+        params["initialiser"] = init
+    return d
+
+
 def upgrade_v1(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
-    """A version-1 spec (the fit job's flat layout) in the version-2 layout.
+    """A version-1 spec (the fit job's flat layout) in the version-2 layout (then made
+    version 3 by :func:`upgrade_v2`).
 
     v1: ``{kind, input, initialiser, renderer, losses, reader, params: {..., dce_threshold,
     record_every}, seed, device}``; the DCE threshold moves under the initialiser, the
@@ -127,6 +163,6 @@ def upgrade_v1(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
     params["losses"] = [{"name": n} for n in losses] if isinstance(losses, list) else losses
     if d.get("reader") is not None:
         params["reader"] = {"name": d["reader"]}
-    return {"version": SPEC_VERSION, "kind": d.get("kind", "fit"),
+    return {"version": 2, "kind": d.get("kind", "fit"),
             "inputs": {"drawing": d.get("input", "")}, "seed": d.get("seed", 0),
             "device": d.get("device", "cpu"), "record_every": record_every, "params": params}

@@ -1,0 +1,210 @@
+"""Editing a fitted motor plan between fit stages: a virtual target inserted where the fit
+misses the input most, two sub-movements merged where the fit made them one.
+
+A ΣΛ motor plan is sparse by design (DESIGN.md § Plan density): about one virtual target
+per salient stroke. DCE places the targets from the geometry alone; after a first fit
+stage the residual says where the plan lacks a stroke (a sharp hook that the overlapping
+lognormals cut short), and the overlaps say where it has one too many (Δt_i pinned at its
+0.1 floor: sub-movement i starts while i − 1 has barely begun, so the two act as one).
+Between stages the plan is edited, and the next stage continues from the edited plan,
+which keeps every other parameter as fitted.
+
+Residual. The input strokes and the fitted trajectories are densified
+(:func:`inkmotion.geometry.chamfer.densify`); each input point's residual is its distance
+to the nearest fitted sample, d(a, B) of the Chamfer distance. Candidates are taken
+greedily: the worst input point, then the worst one more than ``separation`` px away from
+every point taken so far, while the residual exceeds ``above`` px.
+
+Insertion. For a candidate q the fit should pass q at a time t* on path p: half-way
+between the times at which it passes the nearest well-fitted input points before and
+after q on the same stroke (a hook that the overlapping strokes cut off is bracketed by
+where the fit is still on the trace; the nearest fitted sample to q itself often lies on
+another part of the path), else at the nearest fitted sample. The sub-movement i that moves
+the pen most at t*, argmax_i Λ_i(t*)·|d_i| (the lognormal
+speed profile of eq. "velocity" times its amplitude), is split at q: targets
+…, p_{i−1}, q, p_i, … with δ_i halved on both halves and Δt, Ac, T of sub-movement i
+copied to both.
+
+Merging. Where Δt_i (i ≥ 2) is within 1e-6 of the floor, target p_{i−1}, where
+sub-movement i − 1 ends and i begins, is removed: sub-movement i − 1 then runs from
+p_{i−2} to p_i with δ_{i−1} + δ_i (the two arcs' turns add) and its own Δt, Ac and T.
+One merge per pair per edit; a plan keeps at least one sub-movement.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from scipy.spatial import cKDTree
+
+from inkmotion.geometry.chamfer import densify
+from inkmotion.sigma_lognormal.batch import PlanBatch
+from inkmotion.sigma_lognormal.params import DELTA_RANGE, DELTA_T_RANGE
+from inkmotion.sigma_lognormal.plan import MotorPlan
+
+#: |Δt − floor| below which an overlap counts as pinned at the floor
+FLOOR_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Miss:
+    """One place where the fit misses the input: the input point q (2,), its distance to
+    the fit (px), the fitted path p and the time t* of its nearest sample there."""
+
+    point: np.ndarray
+    distance: float
+    path: int
+    time: float
+
+
+@dataclass(frozen=True)
+class FittedSamples:
+    """Dense samples of fitted plans: positions (N, 2), their path (N,) and time (N,)."""
+
+    positions: np.ndarray
+    path: np.ndarray
+    time: np.ndarray
+
+    @classmethod
+    def of(cls, plans: list[MotorPlan], per_move: int = 20,
+           spacing: float = 0.25) -> FittedSamples:
+        """Each plan sampled uniformly in time (``per_move`` per sub-movement), then
+        densified to ``spacing`` px along the polyline (as the Chamfer distance measures
+        it), times interpolated along it."""
+        from inkmotion.outputs.sampling import sample
+
+        positions, paths, times = [], [], []
+        for i, plan in enumerate(plans):
+            s = sample(plan, per_move)
+            xy = s.positions[:, :2]
+            dense = densify(xy, spacing)
+            arc = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+            dense_arc = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))))
+            positions.append(dense)
+            paths.append(np.full(len(dense), i))
+            times.append(np.interp(dense_arc, arc, s.t))
+        return cls(np.vstack(positions), np.concatenate(paths), np.concatenate(times))
+
+
+def worst_misses(strokes: list[np.ndarray], plans: list[MotorPlan], *, above: float,
+                 separation: float, limit: int) -> list[Miss]:
+    """At most ``limit`` input points farther than ``above`` px from the fit, worst first,
+    each more than ``separation`` px from those before it (module docstring)."""
+    if limit <= 0:
+        return []
+    fitted = FittedSamples.of(plans)
+    tree = cKDTree(fitted.positions)
+    dense = [densify(s) for s in strokes if len(s)]
+    stroke_of = np.concatenate([np.full(len(d), i) for i, d in enumerate(dense)])
+    points = np.vstack(dense)  # (K, 2)
+    distance, nearest = tree.query(points)
+    order = np.argsort(-distance)
+    taken: list[Miss] = []
+    for k in order:
+        if distance[k] <= above or len(taken) >= limit:
+            break
+        q = points[k]
+        if any(np.hypot(*(q - t.point)) <= separation for t in taken):
+            continue
+        path, time = _passage(k, stroke_of, distance, nearest, fitted, above)
+        taken.append(Miss(q, float(distance[k]), path, time))
+    return taken
+
+
+def _passage(k: int, stroke_of: np.ndarray, distance: np.ndarray, nearest: np.ndarray,
+             fitted: FittedSamples, above: float) -> tuple[int, float]:
+    """The fitted path and time at which the fit should pass the missed input point ``k``:
+    between the times of the nearest well-fitted input points (residual ≤ ``above``) of
+    the same stroke before and after it, when both lie on one path (a missed excursion —
+    a hook the overlapping strokes cut off — is bracketed by where the fit is still on
+    the trace); else the time of the nearest fitted sample."""
+    same = np.flatnonzero(stroke_of == stroke_of[k])
+    good = same[distance[same] <= above]
+    before, after = good[good < k], good[good > k]
+    if len(before) and len(after):
+        a, b = nearest[before[-1]], nearest[after[0]]
+        if fitted.path[a] == fitted.path[b]:
+            return int(fitted.path[a]), 0.5 * float(fitted.time[a] + fitted.time[b])
+    j = nearest[k]
+    return int(fitted.path[j]), float(fitted.time[j])
+
+
+def dominant_move(plan: MotorPlan, t: float) -> int:
+    """The sub-movement i (0-based) that moves the pen most at time ``t``:
+    argmax_i Λ_i(t)·|d_i| (module docstring)."""
+    p = plan.detached().to(device="cpu", dtype=torch.float64)
+    sigma, mu, t0 = (x.numpy() for x in PlanBatch.from_plans([p]).timing())
+    tau = np.maximum(t - t0, 1e-12)
+    density = np.exp(-((np.log(tau) - mu) ** 2) / (2 * sigma**2)) / (sigma * tau)
+    density = np.where(t > t0, density, 0.0)
+    amplitude = np.linalg.norm(np.diff(p.points.numpy()[:, :2], axis=0), axis=1)
+    return int(np.argmax(density * amplitude))
+
+
+def _rebuild(plan: MotorPlan, points: torch.Tensor, delta_t: torch.Tensor,
+             delta: torch.Tensor, ac: torch.Tensor, T: torch.Tensor) -> MotorPlan:
+    return MotorPlan(points, delta_t, delta, ac, T, plan.width)
+
+
+def split_move(plan: MotorPlan, i: int, q: np.ndarray) -> MotorPlan:
+    """``plan`` with sub-movement ``i`` (0-based) split at the new target ``q`` (2,); a 3-D
+    plan's new target takes the radius half-way between its neighbours."""
+    p = plan.detached()
+    new = torch.as_tensor(np.asarray(q, dtype=np.float64)[:2], dtype=p.points.dtype,
+                          device=p.points.device)
+    if p.dim == 3:
+        new = torch.cat((new, 0.5 * (p.points[i, 2:] + p.points[i + 1, 2:])))
+    points = torch.cat((p.points[:i + 1], new[None], p.points[i + 1:]))
+    twice = lambda x: torch.cat((x[:i + 1], x[i:]))  # noqa: E731  (m,) -> (m + 1,)
+    delta = twice(p.delta)
+    delta[i:i + 2] = p.delta[i] / 2
+    return _rebuild(p, points, twice(p.delta_t), delta, twice(p.ac), twice(p.T))
+
+
+def merge_pinned(plan: MotorPlan) -> tuple[MotorPlan, int]:
+    """``plan`` with every pair of sub-movements whose second Δt sits at the floor merged
+    into one (module docstring), and how many targets were removed."""
+    p = plan.detached()
+    floor = DELTA_T_RANGE[0]
+    pinned = (p.delta_t - floor).abs() <= FLOOR_TOLERANCE
+    pinned[0] = False  # Δt_1 is unused
+    drop: list[int] = []  # sub-movement indices i (0-based) merged into i − 1
+    for i in torch.nonzero(pinned).flatten().tolist():
+        if drop and drop[-1] == i - 1:
+            continue  # one merge per pair: i − 1 was itself merged away
+        drop.append(i)
+    if not drop or p.m - len(drop) < 1:
+        return p, 0
+    keep_moves = [i for i in range(p.m) if i not in drop]
+    keep_points = [j for j in range(p.m + 1) if j not in drop]  # point i joins i − 1 and i
+    delta = p.delta.clone()
+    for i in drop:
+        delta[i - 1] = delta[i - 1] + delta[i]
+    delta = delta.clamp(*DELTA_RANGE)
+    idx = torch.as_tensor(keep_moves, device=p.points.device)
+    return _rebuild(p, p.points[torch.as_tensor(keep_points, device=p.points.device)],
+                    p.delta_t[idx], delta[idx], p.ac[idx], p.T[idx]), len(drop)
+
+
+def insert_targets(plans: list[MotorPlan], misses: list[Miss]) -> list[MotorPlan]:
+    """``plans`` with one target inserted per miss (module docstring), latest time first
+    within a path so earlier indices stay valid."""
+    out = list(plans)
+    for miss in sorted(misses, key=lambda m: (m.path, -m.time)):
+        i = dominant_move(out[miss.path], miss.time)
+        out[miss.path] = split_move(out[miss.path], i, miss.point)
+    return out
+
+
+#: a plan grows by at most this share of its sub-movements in one budget (DESIGN.md § Plan
+#: density: about one target per salient stroke, so within 25 % of the authors' density)
+MAX_GROWTH = 0.25
+
+
+def budget(moves: int, fraction: float) -> int:
+    """Targets an edit may add to a plan of ``moves`` sub-movements: ``fraction`` of them,
+    rounded, and never more than :data:`MAX_GROWTH` of them (rounded down)."""
+    return max(0, min(math.floor(fraction * moves + 0.5), math.floor(MAX_GROWTH * moves)))

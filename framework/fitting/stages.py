@@ -1,0 +1,170 @@
+"""A fit in stages, with the motor plan edited between them (:mod:`inkmotion.fitting.refine`).
+
+Modes (the fit job's ``--targets``):
+
+- ``default``: the initialiser's plan is fitted for ``first_share`` of the steps, edited
+  once per refinement round (targets inserted at the worst misses above ``insert_above``
+  px, at most ``insert_share`` × the initial m over all rounds, and pinned pairs merged),
+  and fitted on for the rest of the steps, split evenly over the rounds. With 0 rounds it
+  is one plain fit.
+- ``auto``: rounds of ``steps`` each (the fit job gives a third of its steps, at least 50);
+  after each, the Chamfer distance of the fit is
+  measured and recorded with the plan's size, and the fit stops as soon as the max
+  distance reaches ``max_error`` px; otherwise targets are inserted at the worst misses
+  (at most ``insert_share`` × m per round) and pinned pairs merged. The record is the
+  "quality vs number of lognormals" curve of the ΣΛ extraction literature.
+- ``N`` (a number): the initialiser's plan (which aims at N sub-movements) fitted as is.
+
+Each stage runs :func:`inkmotion.fitting.optimise.optimise` from the edited plan with fresh
+Adam moments; in ``default`` mode the stages share one cosine decay (a stage resumes the
+learning rates where the previous one left them: a restart at the full rates shook the
+fitted plan), in ``auto`` each round decays on its own. The observers see one step count
+across the stages (a progress bar of the whole fit).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from inkmotion.events import StepState, wants
+from inkmotion.fitting.objective import Objective
+from inkmotion.fitting.optimise import FitResult, OptimiserSettings, optimise
+from inkmotion.fitting.refine import budget, insert_targets, merge_pinned, worst_misses
+from inkmotion.sigma_lognormal.plan import MotorPlan
+
+#: the most rounds an ``auto`` fit runs
+MAX_AUTO_ROUNDS = 12
+
+
+@dataclass(frozen=True)
+class RefineSettings:
+    """How a staged fit edits its plan (module docstring)."""
+
+    mode: str = "default"  # default | auto | fixed
+    rounds: int = 1  # default mode: edits between stages
+    first_share: float = 0.6  # default mode: share of the steps before the first edit
+    insert_above: float = 2.0  # px: misses at least this far from the fit get a target
+    insert_share: float = 0.2  # at most this share of m inserted per edit
+    separation: float = 12.0  # px between two inserted targets of one edit
+    merge: bool = True  # merge pairs whose Δt is pinned at the floor
+    max_error: float = 2.0  # auto: the goal, max Chamfer px
+
+
+@dataclass
+class StagedFit:
+    """The last stage's result, the steps over all stages and the record of each stage."""
+
+    result: FitResult
+    steps: int
+    initial_terms: dict[str, float]
+    initial_t_end: list[float]
+    stages: list[dict[str, Any]] = field(default_factory=list)
+    wall_s: float = 0.0
+
+
+class _Offset:
+    """The observers of a stage, seeing steps numbered across the whole fit."""
+
+    def __init__(self, observers: object, offset: int, total: int) -> None:
+        self.observers, self.offset, self.total = observers, offset, total
+
+    def on_step(self, state: StepState) -> None:
+        fn = getattr(self.observers, "on_step", None)
+        if fn is not None:
+            state.step += self.offset
+            state.total = self.total
+            fn(state)
+
+    def wants_image(self, step: int) -> bool:
+        return wants(self.observers, "image", step + self.offset)
+
+    def wants_geometry(self, step: int) -> bool:
+        return wants(self.observers, "geometry", step + self.offset)
+
+
+def _split(total: int, first_share: float, rounds: int) -> list[int]:
+    """Steps per stage: ``first_share`` of ``total`` first, the rest split over ``rounds``
+    stages (every stage at least one step)."""
+    if rounds <= 0 or total < rounds + 1:
+        return [total]
+    first = max(1, min(total - rounds, round(first_share * total)))
+    rest = total - first
+    return [first] + [rest // rounds + (1 if k < rest % rounds else 0) for k in range(rounds)]
+
+
+def _chamfer(strokes: list[np.ndarray], plans: list[MotorPlan]) -> tuple[float, float]:
+    from inkmotion.geometry.chamfer import chamfer
+    from inkmotion.outputs.sampling import on_cpu, sample
+
+    return chamfer(strokes, [sample(on_cpu(p)).positions for p in plans])
+
+
+def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
+         above: float, limit: int) -> tuple[list[MotorPlan], int, int]:
+    """Insert at most ``limit`` targets at the worst misses above ``above`` px, then merge
+    pinned pairs; returns the plans, inserted and merged counts."""
+    from inkmotion.outputs.sampling import on_cpu
+
+    device, dtype = plans[0].points.device, plans[0].points.dtype
+    cpu = [on_cpu(p) for p in plans]
+    misses = worst_misses(strokes, cpu, above=above, separation=s.separation, limit=limit)
+    cpu = insert_targets(cpu, misses)
+    merged = 0
+    if s.merge:
+        edited = [merge_pinned(p) for p in cpu]
+        cpu = [p for p, _ in edited]
+        merged = sum(k for _, k in edited)
+    return [p.to(device=device, dtype=dtype) for p in cpu], len(misses), merged
+
+
+def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: OptimiserSettings,
+                  strokes: list[np.ndarray], refine: RefineSettings,
+                  observers: object = None) -> StagedFit:
+    """Fit ``plans`` to the input ``strokes`` (canvas px) in stages (module docstring)."""
+    if refine.mode == "auto":
+        steps = [settings.steps] * MAX_AUTO_ROUNDS
+    elif refine.mode == "default":
+        steps = _split(settings.steps, refine.first_share, refine.rounds)
+    else:
+        steps = [settings.steps]
+    total = sum(steps)
+    record: list[dict[str, Any]] = []
+    done, wall = 0, 0.0
+    first: FitResult | None = None
+    inserted = merged = added = 0
+    initial_moves = sum(p.m for p in plans)
+    result: FitResult | None = None
+    for k, n in enumerate(steps):
+        stage = replace(settings, steps=n, schedule_start=0 if refine.mode == "auto" else done,
+                        schedule_total=n if refine.mode == "auto" else total)
+        result = optimise(plans, objective, stage, _Offset(observers, done, total))
+        first = first or result
+        done += n
+        wall += result.wall_s
+        last = k == len(steps) - 1
+        entry: dict[str, Any] = {"stage": k + 1, "steps": n, "moves": sum(p.m for p in plans),
+                                 "inserted_before": inserted, "merged_before": merged}
+        if refine.mode == "auto" or not last:
+            mean, worst = _chamfer(strokes, result.plans)
+            entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
+        record.append(entry)
+        if refine.mode == "auto" and entry["chamfer_max_px"] <= refine.max_error:
+            break
+        if last:
+            break
+        if refine.mode == "auto":  # each round may grow the plan by the share
+            above, limit = refine.max_error / 2, budget(entry["moves"], refine.insert_share)
+        else:  # all rounds together grow it by the share at most
+            above = refine.insert_above
+            limit = budget(initial_moves, refine.insert_share) - added
+        plans, inserted, merged = edit(result.plans, strokes, refine, above, limit)
+        added += inserted
+        if refine.mode == "auto" and inserted == 0 and merged == 0:
+            break  # nothing left to change: the goal is out of reach at this density
+    assert result is not None and first is not None
+    if refine.mode == "auto":
+        total = done
+    return StagedFit(result, total, first.initial_terms, first.initial_t_end, record, wall)

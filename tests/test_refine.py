@@ -1,0 +1,160 @@
+"""Plan edits between fit stages (insert where the fit misses, merge where Δt is pinned) and
+the staged fit: the default refinement, a count of targets, and ``--targets auto``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from inkmotion.fitting.refine import (
+    dominant_move,
+    insert_targets,
+    merge_pinned,
+    split_move,
+    worst_misses,
+)
+from inkmotion.fitting.stages import _split
+from inkmotion.outputs.sampling import sample
+from inkmotion.sigma_lognormal.plan import MotorPlan
+
+
+def plan_through(points: list[list[float]], **kw: float) -> MotorPlan:
+    return MotorPlan.from_points(torch.tensor(points, dtype=torch.float64), **kw,
+                                 dtype=torch.float64)
+
+
+def test_split_keeps_the_ends_and_copies_the_timing() -> None:
+    p = plan_through([[0, 0], [10, 0], [20, 0], [30, 0]])
+    p.delta[:] = torch.tensor([0.1, 0.2, 0.3], dtype=torch.float64)
+    p.delta_t[:] = torch.tensor([1.0, 0.4, 0.6], dtype=torch.float64)
+    q = split_move(p, 1, np.array([15.0, 5.0]))
+    assert q.points.tolist() == [[0, 0], [10, 0], [15, 5], [20, 0], [30, 0]]
+    assert q.delta.tolist() == pytest.approx([0.1, 0.1, 0.1, 0.3])
+    assert q.delta_t.tolist() == pytest.approx([1.0, 0.4, 0.4, 0.6])
+    three = MotorPlan.from_points(torch.tensor([[0.0, 0, 1], [10, 0, 3]]), dtype=torch.float64)
+    assert split_move(three, 0, np.array([5.0, 1.0])).points[1].tolist() == [5.0, 1.0, 2.0]
+
+
+def test_merge_removes_the_junction_of_a_pinned_pair() -> None:
+    p = plan_through([[0, 0], [10, 0], [20, 0], [30, 0]])
+    p.delta[:] = torch.tensor([0.1, 0.2, 0.3], dtype=torch.float64)
+    p.delta_t[:] = torch.tensor([1.0, 0.1, 0.5], dtype=torch.float64)  # Δt_2 at the floor
+    q, merged = merge_pinned(p)
+    assert merged == 1
+    assert q.points.tolist() == [[0, 0], [20, 0], [30, 0]]  # p1 joined moves 1 and 2
+    assert q.delta.tolist() == pytest.approx([0.3, 0.3])
+    assert q.delta_t.tolist() == pytest.approx([1.0, 0.5])
+    one = plan_through([[0, 0], [10, 0]])
+    assert merge_pinned(one)[1] == 0  # Δt_1 is unused: nothing to merge
+    chain = plan_through([[0, 0], [1, 0], [2, 0], [3, 0]], delta_t=0.1)
+    merged_chain, k = merge_pinned(chain)
+    assert k == 1 and merged_chain.m == 2  # one merge per pair: 2 and 3 are not both merged
+
+
+def test_a_missed_hook_gets_a_target_on_the_right_sub_movement() -> None:
+    """The input goes out to a hook at (50, 30) and back; the plan goes straight past it.
+    The worst miss is the hook's tip, bracketed by where the fit is still on the trace,
+    and the new target splits the sub-movement that passes there."""
+    up = np.column_stack((np.linspace(0, 50, 60), np.linspace(0, 30, 60)))
+    down = np.column_stack((np.linspace(50, 100, 60), np.linspace(30, 0, 60)))
+    stroke = np.vstack((np.column_stack((np.linspace(-50, 0, 60), np.zeros(60))), up, down))
+    plan = plan_through([[-50, 0], [0, 0], [100, 0]])
+    misses = worst_misses([stroke], [plan], above=2.0, separation=10.0, limit=3)
+    assert misses and np.allclose(misses[0].point, [50, 30], atol=1.0)
+    assert misses[0].distance == pytest.approx(30.0, abs=0.5)
+    assert all(np.hypot(*(a.point - b.point)) > 10.0 for a in misses for b in misses
+               if a is not b)
+    assert dominant_move(plan, misses[0].time) == 1
+    edited = insert_targets([plan], misses[:1])[0]
+    assert edited.m == 3 and np.allclose(edited.points[2].numpy(), [50, 30], atol=1.0)
+    end = sample(edited).positions[-1, :2]
+    assert np.allclose(end, [100, 0], atol=0.5)  # the path still ends where it did
+
+
+def test_nothing_is_missed_by_a_plan_that_covers_the_input() -> None:
+    plan = plan_through([[0, 0], [100, 0]])
+    line = sample(plan).positions[:, :2]
+    assert worst_misses([line], [plan], above=0.5, separation=5.0, limit=5) == []
+    assert worst_misses([line + [0, 9]], [plan], above=0.5, separation=5.0, limit=0) == []
+
+
+def test_stage_steps_add_up() -> None:
+    assert _split(600, 0.6, 2) == [360, 120, 120]
+    assert _split(301, 0.6, 2) == [181, 60, 60]
+    assert _split(300, 0.6, 0) == [300]
+    assert _split(2, 0.6, 2) == [2]  # too short to edit
+    assert sum(_split(7, 0.6, 3)) == 7
+
+
+def inkmotion(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
+                          text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def word(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The folder the fits of ``text:hi`` (a Hershey word) write into."""
+    return tmp_path_factory.mktemp("refine")
+
+
+def report_of(folder: Path) -> dict:
+    return json.loads((folder / "report.json").read_text())
+
+
+def test_default_fit_reports_its_plan_and_stages(word: Path) -> None:
+    out = word / "default"
+    res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "90", "--size",
+                    "160", "--no-record")
+    assert res.returncode == 0, res.stderr
+    r = report_of(out)
+    assert r["steps"] == 90 and [s["steps"] for s in r["stages"]] == [54, 18, 18]
+    assert r["stages"][0]["moves"] <= r["moves"] <= 1.2 * r["stages"][0]["moves"] + 1
+    assert 0.0 <= r["delta_t_at_clamp"] <= 1.0 and r["speed_peaks"] >= r["paths"]
+    assert "recorded" not in r  # a Hershey word has no time stamps
+    spec = json.loads((out / "job.json").read_text())["spec"]
+    assert spec["params"]["targets"] == "default" and spec["params"]["refine"] == 2
+
+
+def test_a_count_of_targets_is_honoured(word: Path) -> None:
+    out = word / "count"
+    res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "30", "--size",
+                    "160", "--no-record", "--targets", "12")
+    assert res.returncode == 0, res.stderr
+    r = report_of(out)
+    assert abs(r["moves"] - 12) <= 1 and len(r["stages"]) == 1
+
+
+def test_auto_walks_up_to_the_goal_and_records_the_curve(word: Path) -> None:
+    out = word / "auto"
+    res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "120", "--size",
+                    "160", "--no-record", "--targets", "auto", "--max-error", "2.5")
+    assert res.returncode == 0, res.stderr
+    stages = report_of(out)["stages"]
+    moves = [s["moves"] for s in stages]
+    assert moves == sorted(moves) or any(s["merged_before"] for s in stages)
+    assert all("chamfer_max_px" in s for s in stages)
+    last = stages[-1]
+    reached = last["chamfer_max_px"] <= 2.5
+    assert reached or len(stages) == 12 or last["inserted_before"] == 0
+    assert report_of(out)["chamfer_max_px"] == pytest.approx(last["chamfer_max_px"], rel=0.05)
+
+
+def test_bad_target_counts_are_one_sentence(word: Path) -> None:
+    res = inkmotion("run", "fit", "text:hi", "--out", str(word / "bad"), "--targets", "many")
+    assert res.returncode != 0
+    assert "--targets 'many' must be 'default', 'auto' or a number" in res.stderr
+    assert not (word / "bad").exists()
+
+
+def test_the_insertion_budget_keeps_the_plan_within_a_quarter() -> None:
+    from inkmotion.fitting.refine import budget
+
+    assert [budget(m, 0.2) for m in (1, 3, 4, 11, 29, 32)] == [0, 0, 1, 2, 6, 6]
+    assert all(m + budget(m, 0.2) <= 1.25 * m for m in range(1, 200))
+    assert budget(40, 0.0) == 0
