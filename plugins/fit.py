@@ -67,6 +67,8 @@ class FitParams:
     refine: int = param(2, "Edits of the plan between fit stages in 'default' mode (targets "
                         "where the fit misses most, merges where Δt is pinned); 0: none.",
                         minimum=0, maximum=10)
+    merge: bool = param(True, "Merge two sub-movements whose overlap Δt sits on its floor "
+                        "between fit stages.")
     max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
                              minimum=0.05)
     reader: PluginChoice | None = plugin_param(
@@ -88,7 +90,8 @@ class FitParams:
 
         count = target_count(self.targets)
         mode = self.targets if count is None else "fixed"
-        return RefineSettings(mode=mode, rounds=self.refine, max_error=self.max_error)
+        return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
+                              max_error=self.max_error)
 
 
 def target_count(targets: str) -> int | None:
