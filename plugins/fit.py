@@ -134,8 +134,6 @@ class FitKind:
 
 def _fit(job: Job) -> dict[str, Any]:
     """Read, initialise, optimise, write the artifacts; return the report."""
-    import math
-
     import numpy as np
     import torch
 
@@ -156,9 +154,6 @@ def _fit(job: Job) -> dict[str, Any]:
     options = dict(width=p.width, dtype=dtype, device=job.device, **job.options(p.initialiser))
     plans = initialise(JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
                        **options)
-    if p.targets == "auto":  # walk up from half the initialiser's density
-        start = max(len(plans), math.ceil(sum(pl.m for pl in plans) / 2))
-        plans = initialise(JobInputs(canvas, traces=traces, targets=start), **options)
     with torch.no_grad():
         target_segments = traces_to_segments(traces, dtype, job.device)
         widths = torch.full((len(target_segments),), p.width, dtype=dtype, device=job.device)
@@ -168,8 +163,7 @@ def _fit(job: Job) -> dict[str, Any]:
     objective = Objective(renderer, losses, canvas, Weights(
         p.lambda_smooth, p.w_image, p.w_sigma, p.w_canvas, p.samples_per_move,
         p.smooth_over))
-    steps = max(50, p.steps // 3) if p.targets == "auto" else p.steps  # per round in auto
-    settings = OptimiserSettings(steps, p.lr_points, p.lr_delta_t, p.lr_delta, p.lr_ac,
+    settings = OptimiserSettings(p.steps, p.lr_points, p.lr_delta_t, p.lr_delta, p.lr_ac,
                                  p.lr_final)
     job.start(canvas, target, traces.strokes)
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]

@@ -7,18 +7,20 @@ Modes (the fit job's ``--targets``):
   px, at most ``insert_share`` × the initial m over all rounds, and pinned pairs merged),
   and fitted on for the rest of the steps, split evenly over the rounds. With 0 rounds it
   is one plain fit.
-- ``auto``: rounds of ``steps`` each (the fit job gives a third of its steps, at least 50);
-  after each, the Chamfer distance of the fit is
-  measured and recorded with the plan's size, and the fit stops as soon as the max
-  distance reaches ``max_error`` px; otherwise targets are inserted at the worst misses
-  (at most ``insert_share`` × m per round) and pinned pairs merged. The record is the
-  "quality vs number of lognormals" curve of the ΣΛ extraction literature.
+- ``auto``: a first fit of ``steps``, then rounds of a quarter of them (at least 50); after
+  each, the Chamfer distance of the fit is measured and recorded with the plan's size,
+  and the fit stops as soon as the max distance reaches ``max_error`` px; otherwise
+  targets are inserted at the worst misses above ``max_error``/2 (at most
+  ``insert_share`` × m per round, at least one) and the fit goes on. It only grows the
+  plan (no merges, which undid the insertions). The record is the "quality vs number of
+  lognormals" curve of the ΣΛ extraction literature.
 - ``N`` (a number): the initialiser's plan (which aims at N sub-movements) fitted as is.
 
 Each stage runs :func:`inkmotion.fitting.optimise.optimise` from the edited plan with fresh
 Adam moments; in ``default`` mode the stages share one cosine decay (a stage resumes the
 learning rates where the previous one left them: a restart at the full rates shook the
-fitted plan), in ``auto`` each round decays on its own. The observers see one step count
+fitted plan), in ``auto`` each later round runs the last 40 % of a decay of its own
+(from 0.41× of the rates down). The observers see one step count
 across the stages (a progress bar of the whole fit).
 """
 
@@ -125,7 +127,8 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
                   observers: object = None) -> StagedFit:
     """Fit ``plans`` to the input ``strokes`` (canvas px) in stages (module docstring)."""
     if refine.mode == "auto":
-        steps = [settings.steps] * MAX_AUTO_ROUNDS
+        later = max(50, settings.steps // 4)
+        steps = [settings.steps] + [later] * (MAX_AUTO_ROUNDS - 1)
     elif refine.mode == "default":
         steps = _split(settings.steps, refine.first_share, refine.rounds)
     else:
@@ -138,8 +141,13 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     initial_moves = sum(p.m for p in plans)
     result: FitResult | None = None
     for k, n in enumerate(steps):
-        stage = replace(settings, steps=n, schedule_start=0 if refine.mode == "auto" else done,
-                        schedule_total=n if refine.mode == "auto" else total)
+        if refine.mode != "auto":  # one decay over all the stages
+            stage = replace(settings, steps=n, schedule_start=done, schedule_total=total)
+        elif k == 0:
+            stage = replace(settings, steps=n)
+        else:  # the tail of a decay: from 60 % of the way on
+            stage = replace(settings, steps=n, schedule_start=(3 * n) // 2,
+                            schedule_total=(3 * n) // 2 + n)
         result = optimise(plans, objective, stage, _Offset(observers, done, total))
         first = first or result
         done += n
@@ -156,11 +164,14 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         if last:
             break
         if refine.mode == "auto":  # each round may grow the plan by the share
-            above, limit = refine.max_error / 2, budget(entry["moves"], refine.insert_share)
+            above = refine.max_error / 2
+            limit = max(1, budget(entry["moves"], refine.insert_share))
         else:  # all rounds together grow it by the share at most
             above = refine.insert_above
             limit = budget(initial_moves, refine.insert_share) - added
-        plans, inserted, merged = edit(result.plans, strokes, refine, above, limit)
+        plans, inserted, merged = edit(result.plans, strokes,
+                                       replace(refine, merge=refine.merge and
+                                               refine.mode != "auto"), above, limit)
         added += inserted
         if refine.mode == "auto" and inserted == 0 and merged == 0:
             break  # nothing left to change: the goal is out of reach at this density
