@@ -34,6 +34,8 @@ def test_evaluate_writes_the_table_and_plots(tmp_path: Path) -> None:
     assert methods["time-optimal"]["duration"] < methods["sigma-lognormal"]["duration"]
     assert doc["ratios"]["time-optimal"]["duration"] < 1
     assert "time-optimal/ΣΛ" in res.stderr  # the table on the terminal
+    csv = (out / "evaluation.csv").read_text().splitlines()
+    assert len(csv) == 6 and "nan" not in "".join(csv)
 
 
 def test_msj_at_equal_duration_removes_the_time_scaling() -> None:

@@ -159,13 +159,14 @@ def human_figures(recording: str, drawing: Any, folder: Path) -> dict[str, Any]:
 
 
 def write_csv(path: Path, table: dict, ratios: dict) -> None:
-    """evaluation.csv: one row per method (duration, MSJ, LDJ, ...) and the ratio rows."""
+    """evaluation.csv: one row per method (duration, MSJ, LDJ, ..., MSJ·T⁶ in the
+    msj_equal_duration column) and the ratio rows."""
     keys = ["duration", "inverse_duration", "peak_speed", "speed_peaks", "msj", "ldj",
             "msj_equal_duration"]
     lines = ["row," + ",".join(keys)]
     for name, figures in table.items():
-        lines.append(name + "," + ",".join(f"{figures.get(k, float('nan')):.6g}"
-                                           for k in keys))
+        row = {**figures, "msj_equal_duration": figures["msj"] * figures["duration"] ** 6}
+        lines.append(name + "," + ",".join(f"{row[k]:.6g}" for k in keys))
     for name, r in ratios.items():
         row = {"duration": r["duration"], "inverse_duration": 1.0 / r["duration"],
                "msj": r["msj"], "ldj": r["ldj"], "msj_equal_duration": r["msj_equal_duration"]}
