@@ -142,7 +142,10 @@ def test_auto_walks_up_to_the_goal_and_records_the_curve(word: Path) -> None:
     last = stages[-1]
     reached = last["chamfer_max_px"] <= 2.5
     assert reached or len(stages) == 12 or last["inserted_before"] == 0
-    assert report_of(out)["chamfer_max_px"] == pytest.approx(last["chamfer_max_px"], rel=0.05)
+    kept = [s for s in stages if s["kept"]]
+    assert len(kept) == 1 and kept[0]["chamfer_max_px"] == min(s["chamfer_max_px"] for s in stages)
+    assert report_of(out)["chamfer_max_px"] == pytest.approx(kept[0]["chamfer_max_px"], rel=0.05)
+    assert report_of(out)["moves"] == kept[0]["moves"]
 
 
 def test_bad_target_counts_are_one_sentence(word: Path) -> None:

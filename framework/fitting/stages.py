@@ -12,7 +12,9 @@ Modes (the fit job's ``--targets``):
   and the fit stops as soon as the max distance reaches ``max_error`` px; otherwise
   targets are inserted at the worst misses above ``max_error``/2 (at most
   ``insert_share`` × m per round, at least one) and the fit goes on. It only grows the
-  plan (no merges, which undid the insertions). The record is the "quality vs number of
+  plan (no merges, which undid the insertions). Rounds can regress (a new target can
+  pull a stroke off), so the plan kept is the round with the lowest max distance, marked
+  ``kept`` in the record. The record is the "quality vs number of
   lognormals" curve of the ΣΛ extraction literature.
 - ``N`` (a number): the initialiser's plan (which aims at N sub-movements) fitted as is.
 
@@ -137,6 +139,7 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     record: list[dict[str, Any]] = []
     done, wall = 0, 0.0
     first: FitResult | None = None
+    best: tuple[float, FitResult, int] | None = None  # auto: the round with the lowest max
     inserted = merged = added = 0
     initial_moves = sum(p.m for p in plans)
     result: FitResult | None = None
@@ -159,6 +162,8 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
             mean, worst = _chamfer(strokes, result.plans)
             entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
         record.append(entry)
+        if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):
+            best = (entry["chamfer_max_px"], result, k + 1)
         if refine.mode == "auto" and entry["chamfer_max_px"] <= refine.max_error:
             break
         if last:
@@ -178,4 +183,8 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     assert result is not None and first is not None
     if refine.mode == "auto":
         total = done
+        assert best is not None
+        result = best[1]  # rounds can regress: the plan kept is the best one walked
+        for entry in record:
+            entry["kept"] = entry["stage"] == best[2]
     return StagedFit(result, total, first.initial_terms, first.initial_t_end, record, wall)
