@@ -19,7 +19,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from inkmotion.cli import benchmark, clip, evaluate, jobs, run, submit, view, worker
+from inkmotion.cli import benchmark, clip, evaluate, jobs, render, run, submit, view, worker
 from inkmotion.cli.errors import EXIT_USER, fail, report
 from inkmotion.errors import InkmotionError
 
@@ -92,7 +92,7 @@ def bench_cmd(
 def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
-    for group in (run, submit, evaluate, benchmark, jobs, worker, view, clip):
+    for group in (run, submit, evaluate, benchmark, render, jobs, worker, view, clip):
         group.register(app)
 
 

@@ -76,3 +76,15 @@ class StagingDir:
                 raise
         else:
             self.abort()
+
+
+def write_bytes_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a sibling temporary file renamed into place, so
+    ``path`` is either its old content or the whole new one, never a partial file."""
+    path = Path(path)
+    tmp = _sibling(path, "partial")
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
