@@ -69,6 +69,8 @@ class FitParams:
                         minimum=0, maximum=10)
     merge: bool = param(True, "Merge two sub-movements whose overlap Δt sits on its floor "
                         "between fit stages.")
+    spray_preview: bool = param(False, "Also write spray.png, the spray-paint preview of "
+                                "the result (seeded by the job's seed).")
     max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
                              minimum=0.05)
     reader: PluginChoice | None = plugin_param(
@@ -247,6 +249,10 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
                   positions=[p.points.numpy() for p in plans])
     write_speed_plot(folder / "speed.png", plans)
     write_trajectory_csv(folder / "trajectory.csv", plans)
+    if job.params.spray_preview:
+        from inkmotion.rendering.render_plan import write_spray_png
+
+        report["spray_drips"] = write_spray_png(folder / "spray.png", drawing, job.spec.seed)
     return report
 
 

@@ -54,7 +54,7 @@ def abstract_dir(tmp_path_factory) -> Path:
     out = base / "photo"
     res = inkmotion("run", "abstract", str(photo), "--clip-model", TINY, "--clip-weights",
                     "random", "--steps", "8", "--size", "80", "--targets", "40",
-                    "--varying-width", "--out", str(out))
+                    "--varying-width", "--spray-preview", "--out", str(out))
     assert res.returncode == 0, res.stderr
     return out
 
@@ -74,7 +74,7 @@ def test_tag_writes_every_artifact_and_records_random_weights(tag_dir: Path) -> 
 
 
 def test_abstract_is_one_varying_width_path(abstract_dir: Path) -> None:
-    assert COMMON | {"saliency.png"} <= {p.name for p in abstract_dir.iterdir()}
+    assert COMMON | {"saliency.png", "spray.png"} <= {p.name for p in abstract_dir.iterdir()}
     plan = json.loads((abstract_dir / "plan.json").read_text())
     assert len(plan["paths"]) == 1
     points = np.array(plan["paths"][0]["points"])

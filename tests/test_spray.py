@@ -176,3 +176,22 @@ def test_render_refuses_bad_options_in_one_sentence(tmp_path: Path, args: list[s
     assert not out.exists()
     res = inkmotion_cli("render", str(tmp_path / "none.json"), "--out", str(out))
     assert res.returncode == 1 and "none.json" in res.stderr and not out.exists()
+
+
+def test_a_fit_writes_spray_png_when_asked(tmp_path: Path) -> None:
+    import json
+
+    import cv2
+
+    out = tmp_path / "fit"
+    res = inkmotion_cli("run", "fit", "text:hi", "--steps", "5", "--size", "100",
+                        "--no-record", "--spray-preview", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    image = cv2.imread(str(out / "spray.png"))
+    canvas = json.loads((out / "plan.json").read_text())["canvas"]
+    assert image.shape[1] == 2 * round(max(canvas["width"], canvas["height"]))
+    assert "spray_drips" in json.loads((out / "report.json").read_text())
+    plain = tmp_path / "plain"
+    res = inkmotion_cli("run", "fit", "text:hi", "--steps", "5", "--size", "100",
+                        "--no-record", "--out", str(plain))
+    assert res.returncode == 0 and not (plain / "spray.png").exists()

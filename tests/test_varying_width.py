@@ -261,28 +261,34 @@ def test_plan_json_round_trips_3d(tmp_path: Path) -> None:
         torch.testing.assert_close(b.points.double(), a.points, atol=1e-6, rtol=0)
 
 
-def test_svg_of_a_3d_plan_has_a_path_per_segment(tmp_path: Path) -> None:
+def test_svg_of_a_3d_plan_has_brush_outlines_and_centre_lines(tmp_path: Path) -> None:
+    """A drawing with a 2.5D trajectory is written as two layers: filled outlines (the
+    region each brush covers, the 2-D trajectory with its constant radius) and centre
+    lines; the outline's area matches the ink the 'raster' renderer draws within 3 %."""
+    from shapely import Polygon
+
+    from inkmotion.outputs.brush_svg import brush_outline
+
     plans = [_plan3(), MotorPlan.from_points(STROKE, dtype=torch.float64, width=5.0)]
     segs = [bezier_segments(p).detach() for p in plans]
     out = tmp_path / "drawing.svg"
     write_svg(out, segs, [p.width for p in plans], CANVAS)
     root = ET.parse(out).getroot()
-    top = root.find(f"{SVG}g")
-    assert top.get("stroke-linecap") == "round" and top.get("stroke-linejoin") == "round"
-    group, flat = list(top)
-    assert group.tag == f"{SVG}g" and flat.tag == f"{SVG}path"
-    paths = group.findall(f"{SVG}path")
-    assert len(paths) == segs[0].shape[0]
-    widths = [float(p.get("stroke-width")) for p in paths]
-    expected = (segs[0][:, 0, 2] + segs[0][:, 3, 2]).tolist()  # 2 × mean end radius
-    assert widths == pytest.approx(expected, abs=1e-4)
-    assert widths[-1] > widths[0] + 4  # radius 1 → 4 along the stroke
-    for p, s in zip(paths, segs[0], strict=True):
-        d = p.get("d")
-        assert d.startswith("M ") and d.count("C ") == 1
-        x0, y0 = map(float, d.split()[1:3])
-        assert (x0, y0) == pytest.approx(s[0, :2].tolist(), abs=1e-4)
-    assert float(flat.get("stroke-width")) == 5.0 and flat.get("d").count("C ") == segs[1].shape[0]
+    outlines, centres = root.findall(f"{SVG}g")
+    assert outlines.get("id") == "outlines" and centres.get("id") == "centre-lines"
+    assert outlines.get("fill-rule") == "evenodd" and outlines.get("stroke") == "none"
+    assert [p.get("id") for p in outlines] == ["outline0", "outline1"]
+    assert all(p.get("d").startswith("M ") and p.get("d").endswith("Z") for p in outlines)
+    assert [p.get("d").count("C ") for p in centres] == [len(s) for s in segs]
+    # the filled region of the first path, read back from the SVG, has the brush's area
+    ring = outlines[0].get("d").split(" Z")[0].replace("M ", "").replace("L ", "").split()
+    xy = [(float(ring[i]), float(ring[i + 1])) for i in range(0, len(ring), 2)]
+    region = brush_outline(segs[0])
+    assert Polygon(xy).area == pytest.approx(Polygon(region.exterior).area, rel=1e-3)
+    raster = inkmotion.plugin("renderer", "raster")
+    width, height = (int(c) for c in CANVAS)
+    ink = float(raster(segs[0].float(), torch.ones(len(segs[0])), height, width).sum())
+    assert region.area == pytest.approx(ink, rel=0.03)
 
 
 def test_trajectory_csv_has_the_radius(tmp_path: Path) -> None:
@@ -315,3 +321,19 @@ def test_recording_of_a_3d_fit(tmp_path: Path) -> None:
     recorder.on_end({})
     paths = entity_paths(tmp_path / "recording.rrd")
     assert {"/strokes/0/trajectory", "/strokes/0/targets", "/speed/0"} <= paths
+
+
+def test_vpype_reads_the_outlines_and_the_centre_lines_as_two_layers(tmp_path: Path) -> None:
+    vpype = pytest.importorskip("vpype")
+    segs = [bezier_segments(_plan3()).detach()]
+    out = tmp_path / "drawing.svg"
+    write_svg(out, segs, [3.0], CANVAS)
+    doc = vpype.read_multilayer_svg(str(out), quantization=0.1)
+    assert len(doc.layers) == 2
+    names = sorted(doc.layers[k].property("vp_name") for k in doc.layers)
+    assert names == ["centre lines", "outlines"]
+    lengths = {doc.layers[k].property("vp_name"): doc.layers[k].length() for k in doc.layers}
+    centre = float(torch.linalg.vector_norm(torch.diff(torch.tensor(STROKE), dim=0),
+                                            dim=1).sum())
+    assert lengths["centre lines"] == pytest.approx(centre, rel=0.1)
+    assert lengths["outlines"] > 2 * lengths["centre lines"] * 0.9  # around both sides

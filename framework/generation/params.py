@@ -55,6 +55,8 @@ class GenerationParams:
     clip_weights: str = param(
         "auto", "Weights: auto (open_clip's cache), a checkpoint file, or random (tests only).")
     renderer: PluginChoice = plugin_param("renderer", "raster", "Renderer plugin.")
+    spray_preview: bool = param(False, "Also write spray.png, the spray-paint preview of "
+                                "the result (seeded by the job's seed).")
 
     def validate(self) -> None:
         if self.varying_width and self.radius_min > self.radius_max:

@@ -180,6 +180,10 @@ def write_generation(job: Job, fit: FitResult, init: list[MotorPlan], canvas: tu
                       positions=[plan.points for plan in plans])
     if saliency is not None:
         write_saliency(folder / "saliency.png", saliency.detach().cpu())
+    if p.spray_preview:
+        from inkmotion.rendering.render_plan import write_spray_png
+
+        write_spray_png(folder / "spray.png", Drawing(size, plans), job.spec.seed)
 
     t0, t1 = sum(fit.initial_t_end), sum(fit.final_t_end)
     score0 = clip_similarity(clip, init_rendered.to(clip.device), caption,

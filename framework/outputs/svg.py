@@ -3,13 +3,12 @@
 A 2-D trajectory's segments (S, 4, 2) are one ``<path>``, ``M p0 C c1 c2 p3 C ...``
 (consecutive segments share their end points), stroked with the trajectory's width in px.
 A 3-D trajectory's segments (S, 4, 3) carry the stroke radius in px (the 2.5D plans of
-DESIGN.md), which SVG cannot vary along one path: they become a ``<g>`` of one ``<path>``
-per segment, ``M p0 C c1 c2 p3``, with stroke-width = 2·(r(P0) + r(P3))/2, twice the mean
-radius of the segment's two end points. The round caps and joins of the
-enclosing group make consecutive pieces meet without gaps (each cap is a disc of the
-piece's half-width at the shared point). Everything is stroked black, no fill. The
-document is ``width × height`` px with viewBox = canvas, so Inkscape and vpype read the
-same size in px.
+DESIGN.md), which an SVG stroke cannot vary along one path: a drawing with one is written
+as brush outlines (:mod:`inkmotion.outputs.brush_svg`): a layer of filled regions, the
+exact area each brush covers (a 2-D trajectory there is a brush of constant radius w/2),
+and a layer of centre lines for pen plotters. Otherwise everything is stroked black, no
+fill. The document is ``width × height`` px with viewBox = canvas, so Inkscape and vpype
+read the same size in px.
 """
 
 from __future__ import annotations
@@ -23,6 +22,11 @@ _HEADER = """<?xml version="1.0" encoding="UTF-8" standalone="no"?>
 <svg xmlns="http://www.w3.org/2000/svg" version="1.1" width="{w}px" height="{h}px" \
 viewBox="0 0 {w} {h}">
 <g fill="none" stroke="#000000" stroke-linecap="round" stroke-linejoin="round">
+"""
+_BRUSH_HEADER = """<?xml version="1.0" encoding="UTF-8" standalone="no"?>
+<svg xmlns="http://www.w3.org/2000/svg" \
+xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" version="1.1" \
+width="{w}px" height="{h}px" viewBox="0 0 {w} {h}">
 """
 
 
@@ -46,23 +50,12 @@ def path_data(segments: torch.Tensor) -> str:
     return " ".join(parts)
 
 
-def segment_widths(segments: torch.Tensor) -> list[float]:
-    """Stroke width of each 3-D segment (S, 4, 3): r(P0) + r(P3), twice the mean radius of
-    its end points, clamped at 0."""
-    r = segments.detach().to("cpu", torch.float64)[:, :, 2]  # (S, 4)
-    return (r[:, 0] + r[:, 3]).clamp(min=0).tolist()
-
-
-def _varying_group(i: int, segments: torch.Tensor) -> str:
-    """``<g>`` of one ``<path>`` per 3-D segment, each with its own stroke-width."""
-    seg = segments.detach().to("cpu", torch.float64).tolist()
-    lines = [f'<g id="path{i}">\n']
-    for k, (s, width) in enumerate(zip(seg, segment_widths(segments), strict=True)):
-        d = f"M {_num(s[0][0])} {_num(s[0][1])} {_cubic(s)}"
-        lines.append(f'<path id="path{i}-{k}" stroke-width={quoteattr(_num(width))} '
-                     f'd="{d}"/>\n')
-    lines.append("</g>\n")
-    return "".join(lines)
+def _with_radius(segments: torch.Tensor, width: float) -> torch.Tensor:
+    """2-D segments (S, 4, 2) as 3-D ones of constant radius width/2 (3-D: unchanged)."""
+    if segments.shape[-1] == 3:
+        return segments
+    r = torch.full((*segments.shape[:2], 1), float(width) / 2, dtype=segments.dtype)
+    return torch.cat((segments.detach().cpu(), r), dim=-1)
 
 
 def write_svg(
@@ -71,16 +64,22 @@ def write_svg(
     widths: list[float],
     canvas: tuple[float, float],
 ) -> None:
-    """Write each trajectory's segments, (S, 4, 2) as one ``<path>`` of width ``widths[i]``,
-    or (S, 4, 3) as a ``<g>`` of per-segment paths whose width follows the radius (the
-    widths entry is then ignored); ``canvas`` = (width, height) in px."""
+    """Write each trajectory's segments, (S, 4, 2) as one ``<path>`` of width ``widths[i]``;
+    when one is (S, 4, 3) (its radius varies; the widths entry is then ignored), the brush
+    outlines and centre lines instead (module docstring); ``canvas`` = (width, height) px."""
     assert len(segments_per_path) == len(widths), (len(segments_per_path), len(widths))
     w, h = (_num(float(c)) for c in canvas)
+    if any(seg.shape[0] and seg.shape[-1] == 3 for seg in segments_per_path):
+        from inkmotion.outputs.brush_svg import brush_layers
+
+        brushes = [_with_radius(seg, width) for seg, width in
+                   zip(segments_per_path, widths, strict=True)]
+        lines = [_BRUSH_HEADER.format(w=w, h=h), *brush_layers(brushes, path_data),
+                 "</svg>\n"]
+        Path(path).write_text("".join(lines), encoding="utf-8")
+        return
     lines = [_HEADER.format(w=w, h=h)]
     for i, (seg, width) in enumerate(zip(segments_per_path, widths, strict=True)):
-        if seg.shape[0] and seg.shape[-1] == 3:
-            lines.append(_varying_group(i, seg))
-            continue
         d = path_data(seg)
         if d:
             lines.append(

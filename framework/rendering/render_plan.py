@@ -59,7 +59,6 @@ def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "rast
                 size: int = 1000, seed: int = 0, colour: str = "#141418",
                 background: str = "#ffffff") -> dict:
     """Render ``plan_path`` into the PNG ``out``; returns the figures (size, drips, ...)."""
-    from inkmotion.outputs.atomic import write_bytes_atomic
     from inkmotion.sigma_lognormal import Drawing
 
     if renderer not in ("raster", "spray"):
@@ -75,10 +74,25 @@ def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "rast
         figures.update(seed=seed, drips=len(preview.drips))
     else:
         rgb = raster_image(drawing, size, ink, paper)
+    write_rgb_png(Path(out), rgb)
+    figures.update(width=int(rgb.shape[1]), height=int(rgb.shape[0]))
+    return figures
+
+
+def write_rgb_png(path: Path, rgb: np.ndarray) -> None:
+    """An RGB (H, W, 3) uint8 image as a PNG, written atomically."""
     import cv2
+
+    from inkmotion.outputs.atomic import write_bytes_atomic
 
     ok, data = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     assert ok, "OpenCV could not encode the PNG"
-    write_bytes_atomic(Path(out), data.tobytes())
-    figures.update(width=int(rgb.shape[1]), height=int(rgb.shape[0]))
-    return figures
+    write_bytes_atomic(path, data.tobytes())
+
+
+def write_spray_png(path: Path, drawing: object, seed: int) -> int:
+    """spray.png of a job: the spray preview at twice the canvas size; returns the drips."""
+    canvas = drawing.canvas  # type: ignore[attr-defined]
+    preview = spray_preview(drawing, 2 * round(max(canvas)), seed)
+    write_rgb_png(path, preview.rgb)
+    return len(preview.drips)
