@@ -195,3 +195,15 @@ def test_a_fit_writes_spray_png_when_asked(tmp_path: Path) -> None:
     res = inkmotion_cli("run", "fit", "text:hi", "--steps", "5", "--size", "100",
                         "--no-record", "--out", str(plain))
     assert res.returncode == 0 and not (plain / "spray.png").exists()
+
+
+def test_the_spray_session_makes_no_host_synchronisation(device: torch.device) -> None:
+    from inkmotion.profiling import count_host_syncs
+
+    seg = line_segments([4.0] * 10).to(device).float().requires_grad_(True)
+    widths = torch.full((10,), 3.0, device=device)
+    session = inkmotion.plugin("renderer", "spray").session(device)
+    session(seg, widths, 60, 100)  # the planning call reads the widths once
+    with count_host_syncs() as log:
+        session(seg, widths, 60, 100).sum().backward()
+    assert log.count == 0

@@ -14,6 +14,7 @@ TARGETS: dict[str, tuple[float, str]] = {
     "kinematics_m150_ms": (10.0, "≤"),
     "kinematics_ratio_2000_500": (6.0, "≤"),
     "raster_ms": (60.0, "≤"),
+    "spray_host_syncs": (0, "≤"),
     "speedup": (3.0, "≥"),
     "fit_wall_s": (30.0, "≤"),
     "recording_ratio": (1.1, "≤"),
@@ -24,7 +25,7 @@ TARGETS: dict[str, tuple[float, str]] = {
 
 #: run when no ``--only`` is given; the others run only when named (queue: it starts
 #: redis-server and worker subprocesses, a few minutes; generation: CLIP ViT-B-32 jobs)
-DEFAULT_BENCHES = ("kinematics", "raster", "fit", "recording")
+DEFAULT_BENCHES = ("kinematics", "raster", "spray", "fit", "recording")
 
 
 def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]]:
@@ -37,6 +38,11 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
         from inkmotion.benchmarks.raster import bench_raster
 
         return _on(bench_raster, device)
+
+    def spray() -> dict:
+        from inkmotion.benchmarks.spray import bench_spray
+
+        return _on(bench_spray, device)
 
     def fit() -> dict:
         from inkmotion.benchmarks.fit import bench_fit
@@ -68,7 +74,8 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
         print(format_table(figures))
         return {}
 
-    return {"kinematics": kinematics, "raster": raster, "fit": fit, "recording": recording,
+    return {"kinematics": kinematics, "raster": raster, "spray": spray, "fit": fit,
+            "recording": recording,
             "queue": queue, "generation": generation, "tsp": tsp}
 
 

@@ -56,7 +56,7 @@ def plugins_cmd(
 def bench_cmd(
     only: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
         "--only",
-        help="Run only these: kinematics, raster, fit, recording (the default set), "
+        help="Run only these: kinematics, raster, spray, fit, recording (the default set), "
              "queue (opt-in: starts a local redis-server and 2 workers) or generation "
              "(opt-in: CLIP tag and abstract seconds per step).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
