@@ -36,7 +36,7 @@ PER_SEGMENT = 8
 #: σ ∝ (v_ref / v)^β
 SPREAD_EXPONENT = 0.5
 #: σ within [σ_0 / c, c·σ_0]
-SPREAD_CAP = 3.0
+SPREAD_CAP = 2.0
 #: the centre line's optical depth at the reference speed (coverage 1 − e^−3 = 0.95)
 DEPTH = 3.0
 #: patch half side in units of the largest σ

@@ -8,7 +8,8 @@ inversely proportional to the speed; each particle lands at the nozzle position 
 Gaussian offset of spread σ(v) = σ_0·clamp((v_ref/v)^β, 1/c, c) — the same law as the
 differentiable mode (:mod:`inkmotion.rendering.spray`): σ_0 the stroke's half width, v_ref
 the drawing's median speed. The flow is set so that a stretch at v_ref gets
-``particles_per_px`` particles per output pixel of length. Particles are accumulated into
+``particles_per_px2`` particles per output px² on its centre line, √(2π)·σ_0 times that
+per px of length, so the grain looks the same at any output size. Particles are accumulated into
 an image, softened by a Gaussian blur of ``dot_px``, and turned into opacity
 1 − exp(−amount/``saturation``).
 
@@ -42,7 +43,7 @@ class SprayStyle:
     colour: tuple[float, float, float] = (0.08, 0.08, 0.1)
     paper: tuple[float, float, float] = (1.0, 1.0, 1.0)
     opacity: float = 0.95
-    particles_per_px: float = 24.0
+    particles_per_px2: float = 6.0
     dot_px: float = 0.6
     saturation: float = 3.0
     step_px: float = 0.5
@@ -122,20 +123,23 @@ def drips_of(xy: np.ndarray, speed: np.ndarray, dt: float, flow: float, v_ref: f
     return out
 
 
-def _paint_drip(amount: np.ndarray, drip: Drip, sigma0: float, per_px: float) -> None:
-    """Paint a drip (``per_px`` paint on each of its pixels): a narrowing run down from its
-    start and a round drop."""
+def _paint_drip(amount: np.ndarray, drip: Drip, sigma0: float, per_px2: float,
+                rng: np.random.Generator) -> None:
+    """Paint a drip as particles, ``per_px2`` per px² on average (Poisson), over its shape:
+    a run narrowing from the stroke's width to a third of it, and a round drop."""
     import cv2
 
+    shape = np.zeros_like(amount)
     x, y = drip.start
     steps = max(2, int(drip.length))
     for k in range(steps):
         f = k / (steps - 1)
         r = max(0.5, sigma0 * (1.0 - 2.0 * f / 3.0))
-        cv2.circle(amount, (round(x * 4), round((y + f * drip.length) * 4)), round(r * 4),
-                   per_px, thickness=-1, lineType=cv2.LINE_AA, shift=2)
-    cv2.circle(amount, (round(x * 4), round((y + drip.length) * 4)), round(1.3 * sigma0 * 4),
-               per_px, thickness=-1, lineType=cv2.LINE_AA, shift=2)
+        cv2.circle(shape, (round(x * 4), round((y + f * drip.length) * 4)), round(r * 4),
+                   1.0, thickness=-1, lineType=cv2.LINE_AA, shift=2)
+    cv2.circle(shape, (round(x * 4), round((y + drip.length) * 4)), round(1.3 * sigma0 * 4),
+               1.0, thickness=-1, lineType=cv2.LINE_AA, shift=2)
+    amount += rng.poisson(shape * per_px2).astype(amount.dtype)
 
 
 def spray_preview(drawing: object, size: int, seed: int = 0,
@@ -156,7 +160,8 @@ def spray_preview(drawing: object, size: int, seed: int = 0,
     drips: list[Drip] = []
     for plan, (xy, speed, dt) in zip(plans, samples, strict=True):
         sigma0 = max(0.5, plan.width * scale / 2)
-        flow = style.particles_per_px * v_ref  # particles per s: per_px per px at v_ref
+        per_px = style.particles_per_px2 * math.sqrt(2 * math.pi) * sigma0  # along a path
+        flow = per_px * v_ref  # particles per s
         counts = rng.poisson(flow * dt, size=len(xy))
         spread = _spread(speed, v_ref, sigma0, style)
         where = np.repeat(xy, counts, axis=0)
@@ -167,7 +172,7 @@ def spray_preview(drawing: object, size: int, seed: int = 0,
         np.add.at(amount, (row[ok], col[ok]), 1.0)
         path_drips = drips_of(xy, speed, dt, flow, v_ref, sigma0, style, rng, height)
         for d in path_drips:
-            _paint_drip(amount, d, sigma0, 2.5 * style.saturation)  # opacity 0.92
+            _paint_drip(amount, d, sigma0, 1.5 * style.particles_per_px2, rng)
         drips.extend(path_drips)
     if style.dot_px > 0:
         amount = cv2.GaussianBlur(amount, (0, 0), style.dot_px)
