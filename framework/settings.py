@@ -13,9 +13,13 @@ INKMOTION_SOFT_TIME_LIMIT      seconds before a job is asked to stop (default 3 
 INKMOTION_TIME_LIMIT           seconds before a job is killed (default soft + 5 min)
 INKMOTION_VISIBILITY_TIMEOUT   seconds before Redis redelivers an unacknowledged job
                                (default time limit + 10 min: must exceed the longest job)
-INKMOTION_RESTORE_INTERVAL     seconds between a worker's sweeps for jobs whose worker
-                               died (default 60); redelivery happens after
-                               visibility timeout + up to this interval
+INKMOTION_RESTORE_INTERVAL     seconds between Redis's sweeps for unacknowledged jobs
+                               past the visibility timeout (default 60)
+INKMOTION_LEASE_S              seconds a running job's lease lasts without a heartbeat
+                               (default 30; heartbeats every third of it)
+INKMOTION_REAPER_INTERVAL      seconds between a worker's looks for expired leases,
+                               whose jobs it puts back on their queue (default 10): a
+                               dead worker's job runs again within lease + interval
 =============================  ========================================================
 """
 
@@ -52,6 +56,8 @@ class Settings:
     time_limit: int  # s, hard
     visibility_timeout: int  # s, > time_limit
     restore_interval: int  # s
+    lease_s: float = 30.0  # s a running attempt's lease lasts without a heartbeat
+    reaper_interval: float = 10.0  # s between two looks for expired leases
 
     @property
     def jobs_dir(self) -> Path:
@@ -95,6 +101,8 @@ def load_settings() -> Settings:
         time_limit=hard,
         visibility_timeout=visibility,
         restore_interval=int(_number("INKMOTION_RESTORE_INTERVAL", 60)),
+        lease_s=float(_number("INKMOTION_LEASE_S", 30)),
+        reaper_interval=float(_number("INKMOTION_REAPER_INTERVAL", 10)),
     )
 
 

@@ -6,6 +6,7 @@ import json
 import multiprocessing
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -29,7 +30,7 @@ def test_migrations_create_the_schema_matching_the_models(db_url):
     engine = get_engine(db_url)
     assert set(inspect(engine).get_table_names()) == {"jobs", "alembic_version"}
     with engine.connect() as conn:
-        assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0002"
+        assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0003"
         assert compare_metadata(MigrationContext.configure(conn), store.Job.metadata) == []
         assert conn.execute(text("PRAGMA journal_mode")).scalar() == "wal"
         assert conn.execute(text("PRAGMA busy_timeout")).scalar() >= 1000
@@ -113,15 +114,21 @@ def test_record_lifecycle(db_url):
                          db_url=db_url)
     assert (r.status, r.attempts, r.step, r.total, r.spec) == ("queued", 0, 0, 5, spec)
     assert len(r.id) == 32 and r.created_at.tzinfo is not None
-    assert store.mark_running(r.id, "w1@a", db_url)
+    assert store.mark_running(r.id, "w1@a", db_url, owner="w1", lease_s=0.3)
     assert store.update_progress(r.id, 3, 5, {"mse": 0.5, "total": 1.0}, 2.0, db_url)
     mid = store.get_job(r.id, db_url)
     assert (mid.status, mid.step, mid.losses, mid.t_end, mid.worker_host, mid.attempts) == (
         "running", 3, {"mse": 0.5, "total": 1.0}, 2.0, "w1@a", 1)
-    assert store.mark_running(r.id, "w2@b", db_url)  # a redelivery: a second attempt
-    assert store.mark_succeeded(r.id, "/data/jobs/x/artifacts", db_url)
+    # a redelivery while the first attempt's lease is alive is refused; once it expired
+    # (its worker died) a second attempt takes the job over
+    assert not store.mark_running(r.id, "w2@b", db_url, owner="w2")
+    time.sleep(0.4)
+    assert store.mark_running(r.id, "w2@b", db_url, owner="w2")
+    assert not store.mark_succeeded(r.id, "/elsewhere", db_url, owner="w1")  # not w1's
+    assert store.mark_succeeded(r.id, "/data/jobs/x/artifacts", db_url, owner="w2")
     done = store.get_job(r.id, db_url)
     assert (done.status, done.attempts, done.worker_host) == ("succeeded", 2, "w2@b")
+    assert done.lease_owner is None and done.lease_until is None
     assert done.finished and done.finished_at >= done.started_at >= done.created_at
     assert done.artifact_dir == "/data/jobs/x/artifacts" and done.metrics is None
     assert json.loads(json.dumps(done.to_dict()))["metrics"] is None
@@ -129,6 +136,47 @@ def test_record_lifecycle(db_url):
     assert not store.mark_running(r.id, "w3@c", db_url)
     assert not store.mark_cancelled(r.id, db_url)
     assert not store.mark_failed(r.id, "late", db_url)
+
+
+def test_leases_are_renewed_by_their_owner_and_reaped_once(db_url):
+    r = store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
+    assert store.mark_running(r.id, "w1", db_url, owner="a", lease_s=0.2)
+    assert store.renew_lease(r.id, "a", db_url, lease_s=0.2)
+    assert not store.renew_lease(r.id, "b", db_url)  # not b's lease
+    assert store.update_progress(r.id, 1, 5, db_url=db_url, owner="a", lease_s=0.2)
+    assert not store.update_progress(r.id, 2, 5, db_url=db_url, owner="b")
+    assert not store.get_job(r.id, db_url).stalled
+    assert store.requeue_expired(db_url) == []  # alive: nothing to reap
+    time.sleep(0.3)
+    assert store.get_job(r.id, db_url).stalled
+    reaped = store.requeue_expired(db_url)
+    assert [j.id for j in reaped] == [r.id] and reaped[0].status == "queued"
+    assert store.requeue_expired(db_url) == []  # re-queued once
+    assert not store.renew_lease(r.id, "a", db_url)  # the dead attempt's lease is gone
+    assert store.mark_running(r.id, "w2", db_url, owner="c")
+    assert store.get_job(r.id, db_url).attempts == 2
+
+
+def test_concurrent_reapers_requeue_a_job_once(db_url):
+    """Eight threads sweep at once: the expired job is re-queued by exactly one."""
+    import threading
+
+    r = store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
+    assert store.mark_running(r.id, "w1", db_url, owner="a", lease_s=0.01)
+    time.sleep(0.05)
+    won: list[str] = []
+    barrier = threading.Barrier(8)
+
+    def sweep() -> None:
+        barrier.wait()
+        won.extend(j.id for j in store.requeue_expired(db_url))
+
+    threads = [threading.Thread(target=sweep) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert won == [r.id]
 
 
 def test_succeeded_job_keeps_its_metrics(db_url):
@@ -182,7 +230,7 @@ def test_list_find_and_delete(db_url):
 
 def _hammer(db_url: str, job_id: str, n: int) -> None:
     for k in range(n):
-        assert store.mark_running(job_id, f"host-{k}", db_url)
+        assert store.mark_running(job_id, f"host-{k}", db_url, lease_s=-3600.0)  # no live lease
         store.update_progress(job_id, k, n, {"total": float(k)}, 1.0, db_url)
         store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
 

@@ -182,6 +182,53 @@ def test_kill_9_of_a_worker_mid_job_another_worker_completes_it(workers, service
     assert read_steps(artifacts / "recording.rrd") == list(range(1, steps + 1))
 
 
+#: the production defaults of the time limits (soft 3 h, hard + 5 min, visibility + 10 min)
+DEFAULT_LIMITS = {"INKMOTION_SOFT_TIME_LIMIT": "10800", "INKMOTION_TIME_LIMIT": "11100",
+                  "INKMOTION_VISIBILITY_TIMEOUT": "11700", "INKMOTION_RESTORE_INTERVAL": "60"}
+
+
+def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute(
+        worker_pool, service_env, tmp_path):
+    """Workers with the production time limits (Redis would redeliver after 3 h 15 min):
+    the job's worker is killed with SIGKILL; its lease expires, another worker's reaper
+    queues it again, and it is running again within 60 s and succeeds, with one result
+    set. While its lease is expired it is shown as stalled, never as running."""
+    import time
+
+    from inkmotion.workers.local import WorkerPool
+
+    worker_pool.stop_all()  # the session's workers use a short visibility timeout
+    pool = WorkerPool({**service_env, **DEFAULT_LIMITS}, tmp_path / "logs")
+    try:
+        pool.ensure(("d1", "d2"))
+        (job_id,) = submit("text:hello", "--steps", "700", "--size", "128")
+        first = wait_for(lambda: _running(job_id, min_step=20), 60)
+        victim = first.worker_host.split("@")[0]
+        pool.kill(victim)
+        killed = time.monotonic()
+        shown: list[tuple[float, str, int]] = []  # (s since the kill, status, attempts)
+
+        def running_again() -> dict | None:
+            d = json.loads(inkmotion_cli("jobs", "show", job_id, "--json").stdout)
+            shown.append((time.monotonic() - killed, d["status"], d["attempts"]))
+            return d if d["status"] == "running" and d["attempts"] >= 2 else None
+
+        again = wait_for(running_again, 60, interval=1.0)
+        delay = time.monotonic() - killed
+        print(f"running again {delay:.1f} s after the kill, on {again['worker_host']}; "
+              f"shown: {[(round(t), s, a) for t, s, a in shown]}")
+        assert delay < 60 and again["worker_host"] != first.worker_host
+        # the dead attempt is shown as running only while its lease could be alive
+        assert all(t <= 30 + 2 for t, status, attempts in shown
+                   if status == "running" and attempts == 1)
+        wait_succeeded(job_id, timeout=150)
+        r = store.get_job(job_id)
+        assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 700
+        assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
+    finally:
+        pool.stop_all()
+
+
 def test_third_party_job_kind_goes_to_its_own_queue(workers, service_env):
     res = inkmotion_cli("submit", "spiral", "hello", "--turns", "2", "--json")
     assert res.returncode == 0, res.stderr

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import threading
 import time
 
 from inkmotion.events import StepState
@@ -16,22 +17,30 @@ class JobCancelled(Exception):
 
 class StoreProgressObserver:
     """Writes step/total, loss terms and T_end at most every ``min_interval`` seconds
-    (and on the last step); stops the run with :class:`JobCancelled` when the record is no
-    longer ``running`` (``inkmotion jobs cancel`` on a worker that cannot be signalled).
+    (and on the last step), renewing ``owner``'s lease with each write; stops the run with
+    :class:`JobCancelled` when the record is no longer ``running`` (``inkmotion jobs
+    cancel`` on a worker that cannot be signalled), and with
+    :class:`~inkmotion.workers.leases.LeaseLost` when the attempt lost its lease (``lost``
+    set by its heartbeat, or a write that finds another owner).
     A database hiccup while writing progress is logged, not fatal."""
 
     def __init__(self, job_id: str, db_url: str | None = None,
-                 min_interval: float = 0.5) -> None:
+                 min_interval: float = 0.5, *, owner: str | None = None,
+                 lease_s: float = 30.0, lost: threading.Event | None = None) -> None:
         self.job_id = job_id
         self.db_url = db_url
         self.min_interval = min_interval
+        self.owner, self.lease_s, self.lost = owner, lease_s, lost
         self._last = 0.0
 
     def on_step(self, state: StepState) -> None:
         from sqlalchemy.exc import SQLAlchemyError
 
         from inkmotion.store import get_job, update_progress
+        from inkmotion.workers.leases import LeaseLost
 
+        if self.lost is not None and self.lost.is_set():
+            raise LeaseLost(self.job_id)
         now = time.monotonic()
         if now - self._last < self.min_interval and state.step != state.total:
             return
@@ -39,10 +48,13 @@ class StoreProgressObserver:
         try:
             values = state.loss_values()  # one device read, every min_interval seconds
             ok = update_progress(self.job_id, state.step, state.total, values,
-                                 float(state.t_end), db_url=self.db_url)
+                                 float(state.t_end), db_url=self.db_url, owner=self.owner,
+                                 lease_s=self.lease_s)
             if not ok:
                 record = get_job(self.job_id, self.db_url)
                 if record is None or record.status == "cancelled":
                     raise JobCancelled(self.job_id)
+                if self.owner is not None and record.lease_owner != self.owner:
+                    raise LeaseLost(self.job_id)
         except SQLAlchemyError as exc:
             log.warning("job %s: progress not recorded (%s)", self.job_id, exc)

@@ -5,7 +5,9 @@ host), run :func:`inkmotion.jobs.shell.run_job` into ``<data>/jobs/<id>/artifact
 (written atomically by the runner), mark it succeeded. A user error
 (:class:`~inkmotion.errors.InkmotionError`) marks the job failed once with its sentence;
 transient errors (database or broker connection) are retried with exponential backoff; a
-cancelled job is not run. A redelivered job (its worker died) starts again from scratch:
+cancelled job is not run. The attempt holds the job's lease and keeps it alive by
+heartbeats (:mod:`inkmotion.workers.leases`): when its worker dies, any worker's reaper
+queues the job again within a minute. A redelivered job starts again from scratch:
 the killed attempt left only a ``artifacts.partial-*`` folder, which is removed, so the
 job ends with exactly one result set.
 """
@@ -24,12 +26,15 @@ from pathlib import Path
 from typing import Any
 
 from celery.exceptions import SoftTimeLimitExceeded
+from celery.signals import worker_ready
 
 from inkmotion.workers.app import TASK_NAME, app
+from inkmotion.workers.leases import Heartbeat, LeaseLost, attempt_owner, start_reaper
 from inkmotion.workers.progress import JobCancelled, StoreProgressObserver
 
 log = logging.getLogger("inkmotion.workers")
 MAX_RETRIES = 6
+worker_ready.connect(start_reaper)  # every worker process re-queues expired leases
 
 
 def transient_errors() -> tuple[type[BaseException], ...]:
@@ -117,7 +122,13 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
         log.info("job %s is already %s; not run", job_id, record.status)
         return record.status
     host = _worker_host(task)
-    if not store.mark_running(job_id, host, db):
+    owner = attempt_owner(host)
+    if not store.mark_running(job_id, host, db, owner=owner, lease_s=settings.lease_s):
+        now = store.get_job(job_id, db)
+        if now is not None and now.status == "running":
+            log.info("job %s is running on %s under a live lease; not run twice", job_id,
+                     now.worker_host)
+            return "running"
         return "cancelled"
     job_dir = settings.job_dir(job_id)
     artifacts = job_dir / "artifacts"
@@ -132,10 +143,16 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
             return "succeeded"
         started = time.perf_counter()
         try:
-            report = _execute(job_id, record.spec, artifacts, db)
+            with Heartbeat(job_id, owner, db, settings.lease_s) as beat:
+                report = _execute(job_id, record.spec, artifacts, db, owner, beat,
+                                  settings.lease_s)
         except JobCancelled:
             log.info("job %s: cancelled while running; stopped", job_id)
             return "cancelled"
+        except LeaseLost:
+            log.warning("job %s: this attempt lost its lease (another worker took the job "
+                        "over); stopped without a result", job_id)
+            return "lease-lost"
         except InkmotionError as exc:
             log.error("job %s failed: %s", job_id, exc)
             store.mark_failed(job_id, str(exc), db)
@@ -154,14 +171,15 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
                                       f"(see `inkmotion jobs logs {job_id}`).", db)
             return "failed"
         if not store.mark_succeeded(job_id, str(artifacts), db,
-                                    metrics=report.get("metrics")):
+                                    metrics=report.get("metrics"), owner=owner):
             log.warning("job %s finished but its record was no longer running", job_id)
             return "cancelled"
         log.info("job %s succeeded in %.1f s", job_id, time.perf_counter() - started)
         return "succeeded"
 
 
-def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str) -> dict:
+def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
+             beat: Heartbeat, lease_s: float) -> dict:
     from inkmotion.jobs.shell import run_job
     from inkmotion.jobs.spec import JobSpec
 
@@ -170,5 +188,6 @@ def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str) -> dict:
         local = artifacts.parent / "input" / name / Path(value).name
         if not Path(value).exists() and local.exists():
             spec.inputs[name] = str(local)  # the data directory is mounted elsewhere here
-    return run_job(spec, artifacts, observers=[StoreProgressObserver(job_id, db)], record=True,
-                   recording_id=job_id)
+    observer = StoreProgressObserver(job_id, db, owner=owner, lease_s=lease_s,
+                                     lost=beat.lost)
+    return run_job(spec, artifacts, observers=[observer], record=True, recording_id=job_id)

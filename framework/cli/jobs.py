@@ -25,11 +25,17 @@ err = Console(stderr=True)
 out = Console()
 
 STATUS_STYLE = {"queued": "yellow", "running": "cyan", "succeeded": "green", "failed": "red",
-                "cancelled": "magenta"}
+                "cancelled": "magenta", "stalled": "red"}
 #: the fields ``jobs show`` prints, in this order (empty ones are left out)
 SHOWN_FIELDS = ("id", "status", "kind", "queue", "label", "step", "total", "t_end", "losses",
-                "metrics", "attempts", "worker_host", "created_at", "started_at",
+                "metrics", "attempts", "worker_host", "lease_until", "created_at", "started_at",
                 "finished_at", "error", "artifact_dir")
+
+
+def shown_status(r: JobRecord) -> str:
+    """The status to show: a running job whose lease expired (its worker stopped renewing
+    it) is ``stalled`` until a worker's reaper queues it again, never ``running``."""
+    return "stalled" if r.stalled else r.status
 
 jobs_app = typer.Typer(
     help="Inspect and control queued jobs: list, show, wait, cancel, logs.",
@@ -95,9 +101,10 @@ def jobs_list(
     for column in table.columns[:2]:
         column.no_wrap = True
     for r in records:
-        style = STATUS_STYLE.get(r.status, "")
+        status = shown_status(r)
+        style = STATUS_STYLE.get(status, "")
         progress = f"{r.step}/{r.total}" if r.total else ""
-        table.add_row(r.id[:12], f"[{style}]{r.status}[/]", r.kind, r.label, progress,
+        table.add_row(r.id[:12], f"[{style}]{status}[/]", r.kind, r.label, progress,
                       str(r.attempts), r.worker_host or "", _age(r))
     out.print(table)
 
@@ -107,7 +114,9 @@ def jobs_show(job_id: JobIdArg, as_json: JsonOpt = False) -> None:
     """Show one job: status, progress, losses, metrics, attempts, errors, artifacts."""
     from rich.table import Table
 
-    d = resolve_job(job_id).to_dict()
+    record = resolve_job(job_id)
+    d = record.to_dict()
+    d["status"] = shown_status(record)
     if as_json:
         print(json.dumps(d, indent=1))
         return

@@ -19,6 +19,8 @@ from inkmotion.store.repository import (
     mark_running,
     mark_succeeded,
     new_job_id,
+    renew_lease,
+    requeue_expired,
     update_progress,
     update_spec,
 )
@@ -40,6 +42,8 @@ __all__ = [
     "mark_running",
     "mark_succeeded",
     "new_job_id",
+    "renew_lease",
+    "requeue_expired",
     "update_progress",
     "update_spec",
     "upgrade",

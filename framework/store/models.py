@@ -74,3 +74,8 @@ class Job(Base):
     # the job kind's summary figures at success, e.g. {"chamfer_mean_px": 0.12}: one
     # generic JSON column, so new job kinds never need new columns (revision 0002)
     metrics: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    # the running attempt that holds the job and until when (revision 0003): renewed by
+    # heartbeats, expired leases are re-queued by the workers' reapers
+    lease_owner: Mapped[str | None] = mapped_column(String(96), nullable=True)
+    lease_until: Mapped[datetime | None] = mapped_column(UTCDateTime, nullable=True,
+                                                         index=True)

@@ -12,10 +12,10 @@ import math
 import uuid
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass
-from datetime import datetime
+from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import delete, select, update
+from sqlalchemy import and_, delete, or_, select, update
 from sqlalchemy.orm import Session
 
 from inkmotion.store.db import get_engine
@@ -49,10 +49,19 @@ class JobRecord:
     error: str | None
     artifact_dir: str | None
     metrics: dict[str, Any] | None = None
+    lease_owner: str | None = None
+    lease_until: datetime | None = None
 
     @property
     def finished(self) -> bool:
         return self.status in FINAL_STATUSES
+
+    @property
+    def stalled(self) -> bool:
+        """Running, but its lease has expired: its worker stopped renewing it (died or was
+        cut off), and a reaper will put it back on the queue."""
+        return (self.status == "running" and self.lease_until is not None
+                and self.lease_until < utcnow())
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict of every field, ``metrics`` included (ISO 8601 timestamps)."""
@@ -148,20 +157,86 @@ def _update(job_id: str, allowed: Iterable[str], db_url: str | None, **values: A
         return s.execute(stmt).rowcount == 1
 
 
-def mark_running(job_id: str, worker_host: str, db_url: str | None = None) -> bool:
-    """A worker starts an attempt: status running, attempts + 1, its host. ``False`` when
-    the job is already finished (cancelled, succeeded, failed): do not run it."""
-    return _update(job_id, ("queued", "running"), db_url, status="running",
-                   attempts=Job.attempts + 1, worker_host=worker_host,
-                   started_at=utcnow(), step=0, error=None)
+#: seconds a running attempt's lease lasts without a renewal (INKMOTION_LEASE_S overrides)
+DEFAULT_LEASE_S = 30.0
+
+
+def mark_running(job_id: str, worker_host: str, db_url: str | None = None, *,
+                 owner: str | None = None, lease_s: float = DEFAULT_LEASE_S) -> bool:
+    """A worker starts an attempt: status running, attempts + 1, its host, and the lease
+    (``owner`` holds it for ``lease_s`` seconds). Allowed from queued, or from running
+    when no live lease holds it (an attempt whose worker died, or a row without a lease).
+    ``False`` otherwise: the job finished (cancelled, succeeded, failed) or another
+    attempt holds a live lease: do not run it."""
+    now = utcnow()
+    stmt = (update(Job).where(Job.id == job_id, or_(
+        Job.status == "queued",
+        and_(Job.status == "running",
+             or_(Job.lease_until.is_(None), Job.lease_until < now))))
+        .values(status="running", attempts=Job.attempts + 1, worker_host=worker_host,
+                started_at=now, updated_at=now, step=0, error=None, lease_owner=owner,
+                lease_until=now + timedelta(seconds=lease_s))
+        .execution_options(synchronize_session=False))
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(stmt).rowcount == 1
+
+
+def renew_lease(job_id: str, owner: str, db_url: str | None = None,
+                lease_s: float = DEFAULT_LEASE_S) -> bool:
+    """The heartbeat of attempt ``owner``: extend its lease by ``lease_s`` seconds from now.
+    ``False`` when the job is no longer running under this owner (cancelled, finished,
+    or re-queued after the lease expired): the attempt must stop and write nothing."""
+    now = utcnow()
+    stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
+                              Job.lease_owner == owner)
+            .values(lease_until=now + timedelta(seconds=lease_s))
+            .execution_options(synchronize_session=False))
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(stmt).rowcount == 1
+
+
+def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
+    """Put every running job whose lease expired back to ``queued`` (one conditional
+    update each, so when several reapers see the same job only one re-queues it) and
+    return those this call re-queued; the caller sends them to their queue again."""
+    now = utcnow()
+    engine = get_engine(_db_url(db_url))
+    with Session(engine) as s:
+        candidates = s.scalars(select(Job.id).where(
+            Job.status == "running", Job.lease_until.is_not(None),
+            Job.lease_until < now)).all()
+    requeued = []
+    for job_id in candidates:
+        stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
+                                  Job.lease_until < now)
+                .values(status="queued", lease_owner=None, lease_until=None, updated_at=now)
+                .execution_options(synchronize_session=False))
+        with Session(engine) as s, s.begin():
+            won = s.execute(stmt).rowcount == 1
+        if won:
+            record = get_job(job_id, db_url)
+            if record is not None:
+                requeued.append(record)
+    return requeued
 
 
 def update_progress(job_id: str, step: int, total: int, losses: dict[str, float] | None = None,
-                    t_end: float | None = None, db_url: str | None = None) -> bool:
-    """Record progress of a running job. ``False`` when it is no longer running (e.g.
-    cancelled): the worker should stop."""
-    return _update(job_id, ("running",), db_url, step=step, total=total, losses=losses,
-                   t_end=t_end)
+                    t_end: float | None = None, db_url: str | None = None, *,
+                    owner: str | None = None, lease_s: float = DEFAULT_LEASE_S) -> bool:
+    """Record progress of a running job (and, for attempt ``owner``, renew its lease).
+    ``False`` when it is no longer running (e.g. cancelled) or no longer this attempt's:
+    the worker should stop."""
+    if owner is None:
+        return _update(job_id, ("running",), db_url, step=step, total=total, losses=losses,
+                       t_end=t_end)
+    now = utcnow()
+    stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
+                              Job.lease_owner == owner)
+            .values(step=step, total=total, losses=losses, t_end=t_end, updated_at=now,
+                    lease_until=now + timedelta(seconds=lease_s))
+            .execution_options(synchronize_session=False))
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(stmt).rowcount == 1
 
 
 def _json_value(value: Any) -> Any:
@@ -185,30 +260,38 @@ def _json_value(value: Any) -> Any:
 
 
 def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None,
-                   metrics: dict[str, Any] | None = None) -> bool:
+                   metrics: dict[str, Any] | None = None, owner: str | None = None) -> bool:
     """The job's artifacts are complete at ``artifact_dir``; ``metrics`` are the job kind's
     summary figures (e.g. ``{"chamfer_mean_px": 0.12}``), stored in the generic JSON column
     so that every job kind can report its own. They are normalised to plain JSON first
     (see :func:`_json_value`), so a NumPy float cannot make the final update fail; an
     unserialisable value raises ``TypeError`` before anything is written. ``None`` leaves
-    the column as it is."""
+    the column as it is. With ``owner``, only that attempt's lease may finish the job."""
     values: dict[str, Any] = {}
     if metrics is not None:
         values["metrics"] = _json_value(dict(metrics))
-    return _update(job_id, ("running",), db_url, status="succeeded", artifact_dir=artifact_dir,
-                   finished_at=utcnow(), error=None, **values)
+    now = utcnow()
+    where = [Job.id == job_id, Job.status == "running"]
+    if owner is not None:
+        where.append(Job.lease_owner == owner)
+    stmt = (update(Job).where(*where)
+            .values(status="succeeded", artifact_dir=artifact_dir, finished_at=now,
+                    updated_at=now, error=None, lease_owner=None, lease_until=None, **values)
+            .execution_options(synchronize_session=False))
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(stmt).rowcount == 1
 
 
 def mark_failed(job_id: str, error: str, db_url: str | None = None) -> bool:
     """The job failed for good with the one-sentence ``error``."""
     return _update(job_id, ("queued", "running"), db_url, status="failed", error=error,
-                   finished_at=utcnow())
+                   finished_at=utcnow(), lease_owner=None, lease_until=None)
 
 
 def mark_cancelled(job_id: str, db_url: str | None = None) -> bool:
     """Cancel a queued or running job; ``False`` when it had already finished."""
     return _update(job_id, ("queued", "running"), db_url, status="cancelled",
-                   finished_at=utcnow())
+                   finished_at=utcnow(), lease_owner=None, lease_until=None)
 
 
 def delete_job(job_id: str, db_url: str | None = None) -> bool:
