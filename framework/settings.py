@@ -20,6 +20,9 @@ INKMOTION_LEASE_S              seconds a running job's lease lasts without a hea
 INKMOTION_REAPER_INTERVAL      seconds between a worker's looks for expired leases,
                                whose jobs it puts back on their queue (default 10): a
                                dead worker's job runs again within lease + interval
+INKMOTION_CHECKPOINT_STEPS     a running job's checkpoint every this many steps (50) ...
+INKMOTION_CHECKPOINT_S         ... or seconds (30), whichever comes first; a redelivered
+                               job resumes from its last checkpoint
 =============================  ========================================================
 """
 
@@ -58,6 +61,8 @@ class Settings:
     restore_interval: int  # s
     lease_s: float = 30.0  # s a running attempt's lease lasts without a heartbeat
     reaper_interval: float = 10.0  # s between two looks for expired leases
+    checkpoint_steps: int = 50  # a running job's checkpoint every this many steps ...
+    checkpoint_s: float = 30.0  # ... or seconds, whichever comes first
 
     @property
     def jobs_dir(self) -> Path:
@@ -103,6 +108,8 @@ def load_settings() -> Settings:
         restore_interval=int(_number("INKMOTION_RESTORE_INTERVAL", 60)),
         lease_s=float(_number("INKMOTION_LEASE_S", 30)),
         reaper_interval=float(_number("INKMOTION_REAPER_INTERVAL", 10)),
+        checkpoint_steps=int(_number("INKMOTION_CHECKPOINT_STEPS", 50)),
+        checkpoint_s=float(_number("INKMOTION_CHECKPOINT_S", 30)),
     )
 
 

@@ -170,7 +170,7 @@ def _fit(job: Job) -> dict[str, Any]:
     job.start(canvas, target, traces.strokes)
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
     staged = fit_in_stages(plans, objective, settings, strokes, p.refine_settings(),
-                           job.observers)
+                           job.observers, checkpoints=job.checkpoints)
     return _write(job, traces, staged, canvas, target)
 
 
@@ -232,6 +232,10 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
         "stages": staged.stages,
         "metrics": metrics,
     }
+    if job.checkpoints is not None:
+        report["resumed_from_step"] = staged.resumed_from_step
+        report["checkpoints"] = {"written": job.checkpoints.saved,
+                                 "write_s": round(job.checkpoints.save_s, 4)}
     recorded = _recorded_peaks(job, drawing)
     if recorded is not None:
         report["recorded"] = recorded

@@ -176,10 +176,15 @@ def test_kill_9_of_a_worker_mid_job_another_worker_completes_it(workers, service
     assert r.attempts >= 2 and r.worker_host != first.worker_host
     assert r.step == r.total == steps
     artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
-    assert json.loads((artifacts / "report.json").read_text())["steps"] == steps
+    report = json.loads((artifacts / "report.json").read_text())
+    assert report["steps"] == steps
     from inkmotion.recording import read_steps
 
-    assert read_steps(artifacts / "recording.rrd") == list(range(1, steps + 1))
+    # the second attempt resumed from the first one's last checkpoint (0: none was due yet)
+    # and its recording holds the steps it ran
+    resumed = report["resumed_from_step"]
+    assert 0 <= resumed < steps
+    assert read_steps(artifacts / "recording.rrd") == list(range(resumed + 1, steps + 1))
 
 
 #: the production defaults of the time limits (soft 3 h, hard + 5 min, visibility + 10 min)
@@ -192,7 +197,8 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
     """Workers with the production time limits (Redis would redeliver after 3 h 15 min):
     the job's worker is killed with SIGKILL; its lease expires, another worker's reaper
     queues it again, and it is running again within 60 s and succeeds, with one result
-    set. While its lease is expired it is shown as stalled, never as running."""
+    set, resumed from the dead attempt's last checkpoint. While its lease is expired it is
+    shown as stalled, never as running."""
     import time
 
     from inkmotion.workers.local import WorkerPool
@@ -202,10 +208,11 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
     try:
         pool.ensure(("d1", "d2"))
         (job_id,) = submit("text:hello", "--steps", "700", "--size", "128")
-        first = wait_for(lambda: _running(job_id, min_step=20), 60)
+        first = wait_for(lambda: _running(job_id, min_step=120), 90)
         victim = first.worker_host.split("@")[0]
         pool.kill(victim)
         killed = time.monotonic()
+        at_kill = store.get_job(job_id).step
         shown: list[tuple[float, str, int]] = []  # (s since the kill, status, attempts)
 
         def running_again() -> dict | None:
@@ -224,6 +231,11 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
         wait_succeeded(job_id, timeout=150)
         r = store.get_job(job_id)
         assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 700
+        report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
+        # resumed from the dead attempt's last checkpoint (every 50 steps or 30 s; the
+        # recorded step lags the run by up to 0.5 s of progress writes)
+        assert at_kill >= 120 and 100 <= report["resumed_from_step"] < 700
+        assert not (Path(r.artifact_dir).parent / "checkpoint.pt").exists()
         assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
     finally:
         pool.stop_all()

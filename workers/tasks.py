@@ -7,7 +7,8 @@ host), run :func:`inkmotion.jobs.shell.run_job` into ``<data>/jobs/<id>/artifact
 transient errors (database or broker connection) are retried with exponential backoff; a
 cancelled job is not run. The attempt holds the job's lease and keeps it alive by
 heartbeats (:mod:`inkmotion.workers.leases`): when its worker dies, any worker's reaper
-queues the job again within a minute. A redelivered job starts again from scratch:
+queues the job again within a minute. A redelivered job resumes from the checkpoint the
+dead attempt left in ``<data>/jobs/<id>/checkpoint.pt`` (job kinds that checkpoint: fit);
 the killed attempt left only a ``artifacts.partial-*`` folder, which is removed, so the
 job ends with exactly one result set.
 """
@@ -144,8 +145,7 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
         started = time.perf_counter()
         try:
             with Heartbeat(job_id, owner, db, settings.lease_s) as beat:
-                report = _execute(job_id, record.spec, artifacts, db, owner, beat,
-                                  settings.lease_s)
+                report = _execute(job_id, record.spec, artifacts, db, owner, beat, settings)
         except JobCancelled:
             log.info("job %s: cancelled while running; stopped", job_id)
             return "cancelled"
@@ -179,7 +179,7 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
 
 
 def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
-             beat: Heartbeat, lease_s: float) -> dict:
+             beat: Heartbeat, settings: Any) -> dict:
     from inkmotion.jobs.shell import run_job
     from inkmotion.jobs.spec import JobSpec
 
@@ -188,6 +188,11 @@ def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
         local = artifacts.parent / "input" / name / Path(value).name
         if not Path(value).exists() and local.exists():
             spec.inputs[name] = str(local)  # the data directory is mounted elsewhere here
-    observer = StoreProgressObserver(job_id, db, owner=owner, lease_s=lease_s,
+    observer = StoreProgressObserver(job_id, db, owner=owner, lease_s=settings.lease_s,
                                      lost=beat.lost)
-    return run_job(spec, artifacts, observers=[observer], record=True, recording_id=job_id)
+    checkpoint = artifacts.parent / "checkpoint.pt"  # in the job's storage, not the staging
+    report = run_job(spec, artifacts, observers=[observer], record=True, recording_id=job_id,
+                     checkpoint=checkpoint, checkpoint_every=settings.checkpoint_steps,
+                     checkpoint_s=settings.checkpoint_s)
+    checkpoint.unlink(missing_ok=True)  # the result is complete: nothing to resume
+    return report

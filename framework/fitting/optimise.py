@@ -98,6 +98,22 @@ class Adam:
         for p in self.params:
             p.grad = None
 
+    def state(self) -> dict[str, list[torch.Tensor]]:
+        """Copies of the moments and step counters (for a checkpoint)."""
+        return {"exp_avg": [t.detach().clone() for t in self.exp_avg],
+                "exp_avg_sq": [t.detach().clone() for t in self.exp_avg_sq],
+                "steps": [t.clone() for t in self.steps]}
+
+    def load_state(self, state: dict[str, list[torch.Tensor]]) -> None:
+        """Continue from :meth:`state`'s copies (same parameters, same order)."""
+        with torch.no_grad():
+            for mine, saved in ((self.exp_avg, state["exp_avg"]),
+                                (self.exp_avg_sq, state["exp_avg_sq"]),
+                                (self.steps, state["steps"])):
+                assert len(mine) == len(saved), "a checkpoint of another optimiser"
+                for t, v in zip(mine, saved, strict=True):
+                    t.copy_(v.to(t.device))
+
     def step(self, factor: float = 1.0) -> None:
         """One update with every learning rate scaled by ``factor`` (the schedule)."""
         from torch.optim.adam import adam
@@ -151,11 +167,18 @@ def optimise(
     objective: Objective,
     settings: OptimiserSettings,
     observers: object = None,
+    *,
+    resume: dict | None = None,
+    checkpoint: object = None,
 ) -> FitResult:
     """Fit ``plans`` for ``settings.steps`` Adam steps; returns the final (detached) plans.
 
     ``observers`` (an object with optional ``on_step`` / ``wants_image`` /
-    ``wants_geometry``, e.g. the shell's observer group) sees every step.
+    ``wants_geometry``, e.g. the shell's observer group) sees every step. ``checkpoint``
+    (optional, with ``due(step)`` and ``save(step, state)``) is handed the optimiser's
+    state — its parameters ``leaves`` and Adam moments ``adam`` — after the steps it says
+    are due; ``resume``, such a state plus its ``step``, continues from that step exactly
+    (the same arithmetic as an uninterrupted run).
     """
     start = time.perf_counter()
     src = PlanBatch.from_plans([p.detached() for p in plans])
@@ -179,6 +202,13 @@ def optimise(
     if settings.lr_ac > 0:
         groups.append((leaves["ac"], settings.lr_ac))
     optimiser = Adam(groups)
+    first_step = 1
+    if resume is not None:
+        with torch.no_grad():
+            for name, value in resume["leaves"].items():
+                leaves[name].copy_(value.to(leaves[name].device))
+        optimiser.load_state(resume["adam"])
+        first_step = int(resume["step"]) + 1
     batch = assemble()
     on_step = getattr(observers, "on_step", None)
     states = _StepStates(observers, plans, settings.steps)
@@ -189,8 +219,10 @@ def optimise(
     if not math.isfinite(initial_terms["total"]):
         raise _not_finite()
     initial_t_end = first.t_end.tolist()
+    if resume is not None and "initial_terms" in resume:  # the terms before step 1
+        initial_terms, initial_t_end = resume["initial_terms"], resume["initial_t_end"]
     finite = torch.ones((), dtype=torch.bool, device=src.points.device)  # all steps so far
-    for step in range(1, settings.steps + 1):
+    for step in range(first_step, settings.steps + 1):
         optimiser.zero_grad()
         if three:
             batch = assemble()  # a new graph from the updated leaves
@@ -209,6 +241,11 @@ def optimise(
             raise _not_finite()
         if on_step is not None:
             on_step(states(step, ev, batch))
+        if checkpoint is not None and checkpoint.due(step):  # type: ignore[attr-defined]
+            checkpoint.save(step, {  # type: ignore[attr-defined]
+                "leaves": {k: v.detach().clone() for k, v in leaves.items()},
+                "adam": optimiser.state(), "initial_terms": initial_terms,
+                "initial_t_end": initial_t_end})
 
     with torch.no_grad():
         batch = assemble()

@@ -67,6 +67,7 @@ class StagedFit:
     initial_t_end: list[float]
     stages: list[dict[str, Any]] = field(default_factory=list)
     wall_s: float = 0.0
+    resumed_from_step: int = 0
 
 
 class _Offset:
@@ -124,10 +125,37 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     return [p.to(device=device, dtype=dtype) for p in cpu], len(misses), merged
 
 
+class _StageCheckpoint:
+    """The job's :class:`~inkmotion.jobs.checkpoint.Checkpoints` seen from one stage: steps
+    numbered across the stages, and the stage's own state added to what the optimiser
+    hands over (which stage, the plans it started from, the record so far)."""
+
+    def __init__(self, checkpoints: Any, stage: int, done: int, plans: list[MotorPlan],
+                 context: dict[str, Any]) -> None:
+        self.checkpoints, self.stage, self.done = checkpoints, stage, done
+        self.plans = [p.to_dict() for p in plans]
+        self.context = context
+
+    def due(self, step: int) -> bool:
+        return bool(self.checkpoints.due(self.done + step))
+
+    def save(self, step: int, state: dict[str, Any]) -> None:
+        from inkmotion.jobs.checkpoint import rng_states
+
+        self.checkpoints.save(self.done + step, {
+            **state, "stage": self.stage, "step_in_stage": step, "stage_plans": self.plans,
+            "done": self.done, "rng": rng_states(), **self.context})
+
+
 def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: OptimiserSettings,
                   strokes: list[np.ndarray], refine: RefineSettings,
-                  observers: object = None) -> StagedFit:
-    """Fit ``plans`` to the input ``strokes`` (canvas px) in stages (module docstring)."""
+                  observers: object = None, checkpoints: Any = None) -> StagedFit:
+    """Fit ``plans`` to the input ``strokes`` (canvas px) in stages (module docstring).
+
+    ``checkpoints`` (a :class:`~inkmotion.jobs.checkpoint.Checkpoints`, not in ``auto``
+    mode) receives the fit's state as it goes; when it already holds one of this job, the
+    fit resumes from it: the same result as an uninterrupted run, bit for bit on the CPU.
+    ``StagedFit.resumed_from_step`` says from where (0: from the start)."""
     if refine.mode == "auto":
         later = max(50, settings.steps // 4)
         steps = [settings.steps] + [later] * (MAX_AUTO_ROUNDS - 1)
@@ -143,7 +171,27 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     inserted = merged = added = 0
     initial_moves = sum(p.m for p in plans)
     result: FitResult | None = None
+    if refine.mode == "auto":
+        checkpoints = None  # its rounds depend on the measured errors: not resumable
+    saved = checkpoints.load() if checkpoints is not None else None
+    start_stage, resume, initial = 0, None, None
+    if saved is not None:
+        from inkmotion.jobs.checkpoint import restore_rng
+
+        dtype, device = plans[0].points.dtype, plans[0].points.device
+        start_stage, done, record = saved["stage"], saved["done"], list(saved["record"])
+        inserted, merged, added = saved["inserted"], saved["merged"], saved["added"]
+        initial_moves = saved["initial_moves"]
+        plans = [MotorPlan.from_dict(d, dtype).to(device=device) for d in saved["stage_plans"]]
+        initial = (saved["first_terms"], saved["first_t_end"])
+        resume = {"leaves": saved["leaves"], "adam": saved["adam"],
+                  "step": saved["step_in_stage"], "initial_terms": saved["initial_terms"],
+                  "initial_t_end": saved["initial_t_end"]}
+        restore_rng(saved["rng"])
+    resumed_from = done + (resume["step"] if resume is not None else 0)
     for k, n in enumerate(steps):
+        if k < start_stage:
+            continue
         if refine.mode != "auto":  # one decay over all the stages
             stage = replace(settings, steps=n, schedule_start=done, schedule_total=total)
         elif k == 0:
@@ -151,7 +199,18 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         else:  # the tail of a decay: from 60 % of the way on
             stage = replace(settings, steps=n, schedule_start=(3 * n) // 2,
                             schedule_total=(3 * n) // 2 + n)
-        result = optimise(plans, objective, stage, _Offset(observers, done, total))
+        hook = None
+        if checkpoints is not None:
+            first_terms = (first.initial_terms, first.initial_t_end) if first else initial
+            hook = _StageCheckpoint(checkpoints, k, done, plans, {
+                "record": record, "inserted": inserted, "merged": merged, "added": added,
+                "initial_moves": initial_moves,
+                "first_terms": first_terms[0] if first_terms else None,
+                "first_t_end": first_terms[1] if first_terms else None})
+        result = optimise(plans, objective, stage, _Offset(observers, done, total),
+                          resume=resume if k == start_stage else None, checkpoint=hook)
+        if first is None and initial is not None and initial[0] is not None:
+            result.initial_terms, result.initial_t_end = initial  # as before the break
         first = first or result
         done += n
         wall += result.wall_s
@@ -187,4 +246,5 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         result = best[1]  # rounds can regress: the plan kept is the best one walked
         for entry in record:
             entry["kept"] = entry["stage"] == best[2]
-    return StagedFit(result, total, first.initial_terms, first.initial_t_end, record, wall)
+    return StagedFit(result, total, first.initial_terms, first.initial_t_end, record, wall,
+                     resumed_from)

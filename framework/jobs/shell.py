@@ -74,6 +74,9 @@ class Job:
     resolved: ResolvedJob
     total_steps: int
     started: float = field(default_factory=time.perf_counter)
+    #: the job's :class:`~inkmotion.jobs.checkpoint.Checkpoints` (None: not checkpointed);
+    #: a job kind that supports it saves its state there and resumes from it
+    checkpoints: Any = None
 
     def plugin(self, choice: PluginChoice) -> Any:
         """The plugin object a parameter chose."""
@@ -126,12 +129,16 @@ def standard_observers(spec: JobSpec, *, record: bool, progress: bool,
 
 def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = (), *,
             record: bool = False, progress: bool = False,
-            recording_id: str | None = None) -> dict:
+            recording_id: str | None = None, checkpoint: str | Path | None = None,
+            checkpoint_every: int | None = None, checkpoint_s: float | None = None) -> dict:
     """Execute ``spec`` and place its artifacts in ``out_dir`` atomically; return the report.
 
     ``observers`` are added to the standard ones (``record``: recording.rrd; ``progress``:
-    a terminal bar). Raises :class:`inkmotion.errors.InkmotionError` subclasses for
-    user-caused failures (bad input, unknown plugin); nothing is left in ``out_dir`` then.
+    a terminal bar). ``checkpoint``: a file for the job's checkpoints (every
+    ``checkpoint_every`` steps or ``checkpoint_s`` seconds), resumed from when it holds
+    one of this spec; report.json then says ``resumed_from_step``. Raises
+    :class:`inkmotion.errors.InkmotionError` subclasses for user-caused failures (bad
+    input, unknown plugin); nothing is left in ``out_dir`` then.
     """
     import numpy as np
     import torch
@@ -148,9 +155,17 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
     group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
                                                recording_id=recording_id), *observers])
     total = int(resolved.kind.steps(resolved.params))
+    checkpoints = None
+    if checkpoint is not None:
+        from inkmotion.jobs import checkpoint as ck
+
+        checkpoints = ck.Checkpoints(checkpoint, spec.to_dict(),
+                                     checkpoint_every or ck.EVERY_STEPS,
+                                     checkpoint_s or ck.EVERY_S)
     with StagingDir(Path(out_dir)) as staging:
         try:
-            job = Job(spec, resolved.params, device, staging.path, group, resolved, total)
+            job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
+                      checkpoints=checkpoints)
             report = dict(resolved.kind.run(job))
             report["kind"] = spec.kind
             report["wall_s"] = round(time.perf_counter() - job.started, 3)

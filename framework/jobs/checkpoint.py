@@ -1,0 +1,101 @@
+"""Checkpoints of a running job, so that a job redelivered after its worker died resumes
+where the dead attempt left off instead of at step 0.
+
+A checkpoint is one file in the job's own storage (not in the staging folder, which a new
+attempt removes), written every ``every_steps`` steps or ``every_s`` seconds, whichever
+comes first, with ``torch.save`` into a temporary sibling renamed into place
+(``os.replace``): a reader finds the previous complete checkpoint or the new one, never a
+half-written file. It holds what the job kind needs to continue bit for bit — for a fit:
+the stage, the plans it started from, the optimiser's parameters and Adam moments, the
+step, the record of the stages so far, and the RNG states — plus a fingerprint of the job
+spec, so a checkpoint of another spec is never resumed (it is ignored and overwritten).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import random
+import time
+from pathlib import Path
+from typing import Any
+
+#: defaults: a checkpoint every this many steps or seconds, whichever comes first
+EVERY_STEPS = 50
+EVERY_S = 30.0
+
+
+def spec_fingerprint(spec: dict[str, Any]) -> str:
+    """A short hash of the job spec (its JSON, keys sorted)."""
+    return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def rng_states() -> dict[str, Any]:
+    """The states of torch's, NumPy's and Python's global generators."""
+    import numpy as np
+    import torch
+
+    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(),
+            "python": random.getstate()}
+
+
+def restore_rng(states: dict[str, Any]) -> None:
+    import numpy as np
+    import torch
+
+    torch.set_rng_state(states["torch"])
+    np.random.set_state(states["numpy"])
+    random.setstate(states["python"])
+
+
+class Checkpoints:
+    """The checkpoint file of one job (module docstring)."""
+
+    def __init__(self, path: str | Path, spec: dict[str, Any], every_steps: int = EVERY_STEPS,
+                 every_s: float = EVERY_S) -> None:
+        self.path = Path(path)
+        self.fingerprint = spec_fingerprint(spec)
+        self.every_steps, self.every_s = max(1, int(every_steps)), float(every_s)
+        self._last_step = 0
+        self._last_time = time.monotonic()
+        self.saved = 0
+        self.save_s = 0.0  # total time spent writing checkpoints
+
+    def due(self, step: int) -> bool:
+        """Whether a checkpoint should be written after ``step``."""
+        return (step - self._last_step >= self.every_steps
+                or time.monotonic() - self._last_time >= self.every_s)
+
+    def save(self, step: int, state: dict[str, Any]) -> None:
+        """Write ``state`` (tensors and plain data) as the checkpoint after ``step``."""
+        import torch
+
+        started = time.perf_counter()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_name(f"{self.path.name}.partial-{os.getpid()}")
+        torch.save({"fingerprint": self.fingerprint, "step": step, "state": state}, tmp)
+        os.replace(tmp, self.path)
+        self._last_step, self._last_time = step, time.monotonic()
+        self.saved += 1
+        self.save_s += time.perf_counter() - started
+
+    def load(self) -> dict[str, Any] | None:
+        """The saved state when a checkpoint of this spec exists, else None (a missing,
+        unreadable or foreign checkpoint is ignored)."""
+        import torch
+
+        if not self.path.is_file():
+            return None
+        try:
+            saved = torch.load(self.path, weights_only=False)
+        except Exception:  # a torn or foreign file: start afresh
+            return None
+        if not isinstance(saved, dict) or saved.get("fingerprint") != self.fingerprint:
+            return None
+        self._last_step = int(saved["step"])
+        return dict(saved["state"], step=int(saved["step"]))
+
+    def remove(self) -> None:
+        """Delete the checkpoint (the job finished)."""
+        self.path.unlink(missing_ok=True)

@@ -1,0 +1,85 @@
+"""Checkpoints: a fit interrupted mid-run and run again with the same checkpoint file
+resumes from its last checkpoint and ends with the plan of an uninterrupted run, bit for
+bit on the CPU, also across the plan edits between stages."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from inkmotion.jobs.checkpoint import Checkpoints
+from inkmotion.jobs.shell import run_job
+from inkmotion.jobs.spec import JobSpec
+
+
+class Crash(Exception):
+    """The stand-in for a worker dying at a step."""
+
+
+class CrashAt:
+    """An observer that raises at step ``step`` (a killed worker, in-process)."""
+
+    def __init__(self, step: int) -> None:
+        self.step = step
+
+    def on_step(self, state: object) -> None:
+        if state.step == self.step:  # type: ignore[attr-defined]
+            raise Crash(self.step)
+
+
+def spec(steps: int = 60, **params: object) -> JobSpec:
+    return JobSpec(kind="fit", inputs={"drawing": "text:hi"}, device="cpu", record_every=0,
+                   params={"steps": steps, "size": 100, **params})
+
+
+def plan_of(folder: Path) -> dict:
+    return json.loads((folder / "plan.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    out = tmp_path_factory.mktemp("ck") / "whole"
+    run_job(spec(), out)
+    return plan_of(out)
+
+
+@pytest.mark.parametrize("crash, resumed", [(37, 30), (45, 40), (58, 50)])
+def test_a_resumed_fit_equals_an_uninterrupted_one(tmp_path: Path, uninterrupted: dict,
+                                                   crash: int, resumed: int) -> None:
+    """60 steps in stages of 36, 12 and 12 (edits after 36 and 48); a checkpoint every 10
+    steps; the crash at 37 and 45 falls inside the second stage, at 58 in the third."""
+    checkpoint = tmp_path / "checkpoint.pt"
+    with pytest.raises(Crash):
+        run_job(spec(), tmp_path / "a", observers=[CrashAt(crash)], checkpoint=checkpoint,
+                checkpoint_every=10, checkpoint_s=1e9)
+    assert checkpoint.is_file() and not (tmp_path / "a").exists()
+    report = run_job(spec(), tmp_path / "a", checkpoint=checkpoint, checkpoint_every=10,
+                     checkpoint_s=1e9)
+    assert report["resumed_from_step"] == resumed
+    assert plan_of(tmp_path / "a") == uninterrupted  # bit for bit (JSON of float64 values)
+    whole = json.loads((tmp_path / "a" / "report.json").read_text())
+    assert whole["steps"] == 60 and len(whole["stages"]) == 3
+
+
+def test_a_checkpoint_of_another_spec_is_not_resumed(tmp_path: Path) -> None:
+    checkpoint = tmp_path / "checkpoint.pt"
+    with pytest.raises(Crash):
+        run_job(spec(40), tmp_path / "a", observers=[CrashAt(25)], checkpoint=checkpoint,
+                checkpoint_every=10, checkpoint_s=1e9)
+    report = run_job(spec(40, lambda_smooth=30.0), tmp_path / "b", checkpoint=checkpoint,
+                     checkpoint_every=10, checkpoint_s=1e9)
+    assert report["resumed_from_step"] == 0
+
+
+def test_a_torn_checkpoint_is_ignored(tmp_path: Path) -> None:
+    path = tmp_path / "checkpoint.pt"
+    path.write_bytes(b"not a checkpoint")
+    assert Checkpoints(path, {"a": 1}).load() is None
+    ck = Checkpoints(path, {"a": 1}, every_steps=5, every_s=1e9)
+    assert not ck.due(4) and ck.due(5)
+    ck.save(5, {"x": 1})
+    assert ck.load() == {"x": 1, "step": 5}
+    assert Checkpoints(path, {"a": 2}).load() is None  # another spec
+    assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
