@@ -241,6 +241,46 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
         pool.stop_all()
 
 
+def test_sigterm_hands_the_running_job_back_at_once(worker_pool, service_env, tmp_path):
+    """A redeploy: SIGTERM to the worker running a job. It checkpoints the job, puts it
+    back on the queue and exits within seconds; the other worker resumes it from that
+    checkpoint (not step 0) without waiting for a lease to expire, and it succeeds."""
+    import signal
+    import time
+
+    from inkmotion.workers.local import WorkerPool
+
+    worker_pool.stop_all()
+    pool = WorkerPool({**service_env, **DEFAULT_LIMITS}, tmp_path / "logs")
+    name = ""
+    try:
+        pool.ensure(("t1", "t2"))
+        (job_id,) = submit("text:hello", "--steps", "700", "--size", "128")
+        first = wait_for(lambda: _running(job_id, min_step=120), 90)
+        name = first.worker_host.split("@")[0]
+        proc = pool.procs[name]
+        proc.send_signal(signal.SIGTERM)
+        sent = time.monotonic()
+        proc.wait(30)
+        exited = time.monotonic() - sent
+        again = wait_for(lambda: (r := store.get_job(job_id)).status == "running"
+                         and r.attempts >= 2 and r, 30)
+        delay = time.monotonic() - sent
+        print(f"worker exited {exited:.1f} s after SIGTERM; job running again after "
+              f"{delay:.1f} s on {again.worker_host}")
+        assert delay < 15 and again.worker_host != first.worker_host
+        log = (Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "job.log").read_text()
+        assert "checkpointed and queued again" in log
+        wait_succeeded(job_id, timeout=150)
+        r = store.get_job(job_id)
+        report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
+        assert r.attempts == 2 and report["resumed_from_step"] >= 120
+        assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
+    finally:
+        pool.procs.pop(name, None)
+        pool.stop_all()
+
+
 def test_third_party_job_kind_goes_to_its_own_queue(workers, service_env):
     res = inkmotion_cli("submit", "spiral", "hello", "--turns", "2", "--json")
     assert res.returncode == 0, res.stderr

@@ -21,6 +21,7 @@ from __future__ import annotations
 import logging
 import os
 import secrets
+import signal
 import socket
 import threading
 from typing import Any
@@ -35,6 +36,45 @@ def attempt_owner(host: str | None = None) -> str:
 
 class LeaseLost(Exception):
     """Raised inside the runner when this attempt no longer holds its job's lease."""
+
+
+class HandBack(Exception):
+    """Raised inside the runner when the worker is shutting down: the job, checkpointed,
+    goes back to its queue for another worker."""
+
+
+#: set when this worker process was asked to shut down (SIGTERM: a redeploy, autoscaling)
+SHUTDOWN = threading.Event()
+#: seconds a shutting-down worker waits for its job to hand itself back before it exits
+SHUTDOWN_GRACE_S = 30.0
+
+
+def on_worker_shutting_down(**_: Any) -> None:
+    """Celery's ``worker_shutting_down`` (the first SIGTERM): ask the running job to
+    checkpoint and hand itself back at its next step; if it has not within the grace
+    time (``INKMOTION_SHUTDOWN_GRACE_S``), end the process anyway (its lease then expires
+    and a reaper re-queues it). A second SIGTERM is Celery's cold shutdown."""
+    if SHUTDOWN.is_set():
+        return
+    SHUTDOWN.set()  # the solo pool runs the job in this process
+    try:  # a prefork pool runs it in a child: tell each child (see install_child_handler)
+        import billiard.process
+
+        for child in billiard.process.active_children():
+            os.kill(child.pid, signal.SIGUSR2)
+    except (ImportError, OSError) as exc:
+        log.warning("worker: could not tell the pool's processes to hand back (%s)", exc)
+    grace = float(os.environ.get("INKMOTION_SHUTDOWN_GRACE_S", SHUTDOWN_GRACE_S))
+
+    def give_up() -> None:
+        log.warning("worker: the running job did not hand itself back within %.0f s; "
+                    "exiting (its lease will expire and another worker takes it)", grace)
+        logging.shutdown()
+        os._exit(1)
+
+    timer = threading.Timer(grace, give_up)
+    timer.daemon = True
+    timer.start()
 
 
 class Heartbeat:
@@ -105,6 +145,12 @@ class Reaper:
                 self.sweep()
             except Exception as exc:  # database or broker away: the next look retries
                 log.warning("lease reaper: %s: %s", type(exc).__name__, exc)
+
+
+def install_child_handler(**_: Any) -> None:
+    """Celery's ``worker_process_init`` (a prefork pool process starts): SIGUSR2 from the
+    shutting-down main process sets :data:`SHUTDOWN` here too."""
+    signal.signal(signal.SIGUSR2, lambda *_: SHUTDOWN.set())
 
 
 _REAPER: Reaper | None = None

@@ -21,26 +21,34 @@ class StoreProgressObserver:
     :class:`JobCancelled` when the record is no longer ``running`` (``inkmotion jobs
     cancel`` on a worker that cannot be signalled), and with
     :class:`~inkmotion.workers.leases.LeaseLost` when the attempt lost its lease (``lost``
-    set by its heartbeat, or a write that finds another owner).
+    set by its heartbeat, or a write that finds another owner), and with
+    :class:`~inkmotion.workers.leases.HandBack` one step after ``shutdown`` is set (the
+    worker is shutting down; a checkpointing job kind wrote its checkpoint at that step).
     A database hiccup while writing progress is logged, not fatal."""
 
     def __init__(self, job_id: str, db_url: str | None = None,
                  min_interval: float = 0.5, *, owner: str | None = None,
-                 lease_s: float = 30.0, lost: threading.Event | None = None) -> None:
+                 lease_s: float = 30.0, lost: threading.Event | None = None,
+                 shutdown: threading.Event | None = None) -> None:
         self.job_id = job_id
         self.db_url = db_url
         self.min_interval = min_interval
-        self.owner, self.lease_s, self.lost = owner, lease_s, lost
+        self.owner, self.lease_s, self.lost, self.shutdown = owner, lease_s, lost, shutdown
         self._last = 0.0
+        self._shutdown_seen = False
 
     def on_step(self, state: StepState) -> None:
         from sqlalchemy.exc import SQLAlchemyError
 
         from inkmotion.store import get_job, update_progress
-        from inkmotion.workers.leases import LeaseLost
+        from inkmotion.workers.leases import HandBack, LeaseLost
 
         if self.lost is not None and self.lost.is_set():
             raise LeaseLost(self.job_id)
+        if self.shutdown is not None and self.shutdown.is_set():
+            if self._shutdown_seen:  # the step before checkpointed (when the kind does)
+                raise HandBack(self.job_id)
+            self._shutdown_seen = True
         now = time.monotonic()
         if now - self._last < self.min_interval and state.step != state.total:
             return

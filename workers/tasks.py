@@ -27,15 +27,26 @@ from pathlib import Path
 from typing import Any
 
 from celery.exceptions import SoftTimeLimitExceeded
-from celery.signals import worker_ready
+from celery.signals import worker_process_init, worker_ready, worker_shutting_down
 
 from inkmotion.workers.app import TASK_NAME, app
-from inkmotion.workers.leases import Heartbeat, LeaseLost, attempt_owner, start_reaper
+from inkmotion.workers.leases import (
+    SHUTDOWN,
+    HandBack,
+    Heartbeat,
+    LeaseLost,
+    attempt_owner,
+    install_child_handler,
+    on_worker_shutting_down,
+    start_reaper,
+)
 from inkmotion.workers.progress import JobCancelled, StoreProgressObserver
 
 log = logging.getLogger("inkmotion.workers")
 MAX_RETRIES = 6
 worker_ready.connect(start_reaper)  # every worker process re-queues expired leases
+worker_shutting_down.connect(on_worker_shutting_down)  # SIGTERM: hand the job back
+worker_process_init.connect(install_child_handler)  # ... also from a prefork child
 
 
 def transient_errors() -> tuple[type[BaseException], ...]:
@@ -149,6 +160,12 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
         except JobCancelled:
             log.info("job %s: cancelled while running; stopped", job_id)
             return "cancelled"
+        except HandBack:
+            if store.release(job_id, owner, db):
+                app.send_task(TASK_NAME, args=[job_id], queue=record.queue)
+                log.info("job %s: the worker is shutting down; checkpointed and queued "
+                         "again", job_id)
+            return "handed-back"
         except LeaseLost:
             log.warning("job %s: this attempt lost its lease (another worker took the job "
                         "over); stopped without a result", job_id)
@@ -189,10 +206,10 @@ def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
         if not Path(value).exists() and local.exists():
             spec.inputs[name] = str(local)  # the data directory is mounted elsewhere here
     observer = StoreProgressObserver(job_id, db, owner=owner, lease_s=settings.lease_s,
-                                     lost=beat.lost)
+                                     lost=beat.lost, shutdown=SHUTDOWN)
     checkpoint = artifacts.parent / "checkpoint.pt"  # in the job's storage, not the staging
     report = run_job(spec, artifacts, observers=[observer], record=True, recording_id=job_id,
                      checkpoint=checkpoint, checkpoint_every=settings.checkpoint_steps,
-                     checkpoint_s=settings.checkpoint_s)
+                     checkpoint_s=settings.checkpoint_s, checkpoint_now=SHUTDOWN)
     checkpoint.unlink(missing_ok=True)  # the result is complete: nothing to resume
     return report

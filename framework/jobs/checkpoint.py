@@ -53,7 +53,7 @@ class Checkpoints:
     """The checkpoint file of one job (module docstring)."""
 
     def __init__(self, path: str | Path, spec: dict[str, Any], every_steps: int = EVERY_STEPS,
-                 every_s: float = EVERY_S) -> None:
+                 every_s: float = EVERY_S, now: Any = None) -> None:
         self.path = Path(path)
         self.fingerprint = spec_fingerprint(spec)
         self.every_steps, self.every_s = max(1, int(every_steps)), float(every_s)
@@ -61,9 +61,14 @@ class Checkpoints:
         self._last_time = time.monotonic()
         self.saved = 0
         self.save_s = 0.0  # total time spent writing checkpoints
+        self.now = now  # a threading.Event: once set, a checkpoint is due at once (shutdown)
+        self._final_done = False
 
     def due(self, step: int) -> bool:
         """Whether a checkpoint should be written after ``step``."""
+        if self.now is not None and self.now.is_set() and not self._final_done:
+            self._final_done = True
+            return True
         return (step - self._last_step >= self.every_steps
                 or time.monotonic() - self._last_time >= self.every_s)
 

@@ -130,13 +130,15 @@ def standard_observers(spec: JobSpec, *, record: bool, progress: bool,
 def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = (), *,
             record: bool = False, progress: bool = False,
             recording_id: str | None = None, checkpoint: str | Path | None = None,
-            checkpoint_every: int | None = None, checkpoint_s: float | None = None) -> dict:
+            checkpoint_every: int | None = None, checkpoint_s: float | None = None,
+            checkpoint_now: Any = None) -> dict:
     """Execute ``spec`` and place its artifacts in ``out_dir`` atomically; return the report.
 
     ``observers`` are added to the standard ones (``record``: recording.rrd; ``progress``:
     a terminal bar). ``checkpoint``: a file for the job's checkpoints (every
     ``checkpoint_every`` steps or ``checkpoint_s`` seconds), resumed from when it holds
-    one of this spec; report.json then says ``resumed_from_step``. Raises
+    one of this spec; report.json then says ``resumed_from_step``; ``checkpoint_now`` (a
+    ``threading.Event``) asks for a checkpoint at the next step once it is set. Raises
     :class:`inkmotion.errors.InkmotionError` subclasses for user-caused failures (bad
     input, unknown plugin); nothing is left in ``out_dir`` then.
     """
@@ -161,7 +163,7 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
 
         checkpoints = ck.Checkpoints(checkpoint, spec.to_dict(),
                                      checkpoint_every or ck.EVERY_STEPS,
-                                     checkpoint_s or ck.EVERY_S)
+                                     checkpoint_s or ck.EVERY_S, now=checkpoint_now)
     with StagingDir(Path(out_dir)) as staging:
         try:
             job = Job(spec, resolved.params, device, staging.path, group, resolved, total,

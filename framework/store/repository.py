@@ -220,6 +220,17 @@ def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
     return requeued
 
 
+def release(job_id: str, owner: str, db_url: str | None = None) -> bool:
+    """Attempt ``owner`` hands its running job back: status queued, no lease, at once (a
+    worker shutting down). ``False`` when the job is no longer this attempt's."""
+    stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
+                              Job.lease_owner == owner)
+            .values(status="queued", lease_owner=None, lease_until=None, updated_at=utcnow())
+            .execution_options(synchronize_session=False))
+    with Session(get_engine(_db_url(db_url))) as s, s.begin():
+        return s.execute(stmt).rowcount == 1
+
+
 def update_progress(job_id: str, step: int, total: int, losses: dict[str, float] | None = None,
                     t_end: float | None = None, db_url: str | None = None, *,
                     owner: str | None = None, lease_s: float = DEFAULT_LEASE_S) -> bool:
