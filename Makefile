@@ -7,7 +7,7 @@ PIP := $(PY) -m pip
 DEMO_OUT ?= results/demo
 DEMO_INPUT ?= text:inkmotion
 
-.PHONY: demo test venv test-venv redis lint bench clean
+.PHONY: demo test venv test-venv redis postgres lint bench clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -41,8 +41,15 @@ redis:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq redis-server >/dev/null; }
 
+## postgres: the PostgreSQL tests start their own server; install the Debian package if missing
+postgres:
+	@ls /usr/lib/postgresql/*/bin/postgres >/dev/null 2>&1 || command -v postgres >/dev/null || { \
+	  echo "installing postgresql (Debian package)"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq postgresql >/dev/null; }
+
 ## test: create .venv with the test extras, run the whole suite
-test: test-venv redis
+test: test-venv redis postgres
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q
 

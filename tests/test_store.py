@@ -7,6 +7,7 @@ import multiprocessing
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -18,9 +19,28 @@ from inkmotion.store.db import get_engine
 from inkmotion.store.migrations import HEAD_REVISION
 
 
-@pytest.fixture
-def db_url(tmp_path: Path) -> str:
-    return f"sqlite:///{tmp_path / 'jobs.sqlite3'}"
+@pytest.fixture(scope="module")
+def postgres() -> Iterator[object]:
+    """A PostgreSQL server for this module (Debian's postgresql, started in a temporary
+    folder on a free port; installed by `make test`); skipped where it is not installed."""
+    from inkmotion.workers.local import postgres_bin_dir, start_postgres
+
+    if postgres_bin_dir() is None:
+        pytest.skip("PostgreSQL is not installed (apt-get install postgresql)")
+    pytest.importorskip("psycopg")
+    server = start_postgres()
+    yield server
+    store.dispose_engines()
+    server.stop()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def db_url(request: pytest.FixtureRequest, tmp_path: Path) -> str:
+    """A fresh job store: a SQLite file, or a new database on the PostgreSQL server."""
+    if request.param == "sqlite":
+        return f"sqlite:///{tmp_path / 'jobs.sqlite3'}"
+    server = request.getfixturevalue("postgres")
+    return server.create_database(f"t{abs(hash(request.node.nodeid)) % 10**9}")
 
 
 def test_migrations_create_the_schema_matching_the_models(db_url):
@@ -32,8 +52,9 @@ def test_migrations_create_the_schema_matching_the_models(db_url):
     with engine.connect() as conn:
         assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0003"
         assert compare_metadata(MigrationContext.configure(conn), store.Job.metadata) == []
-        assert conn.execute(text("PRAGMA journal_mode")).scalar() == "wal"
-        assert conn.execute(text("PRAGMA busy_timeout")).scalar() >= 1000
+        if engine.dialect.name == "sqlite":
+            assert conn.execute(text("PRAGMA journal_mode")).scalar() == "wal"
+            assert conn.execute(text("PRAGMA busy_timeout")).scalar() >= 1000
     assert "metrics" in {c["name"] for c in inspect(engine).get_columns("jobs")}
     store.upgrade(engine)  # idempotent
 

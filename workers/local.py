@@ -115,10 +115,11 @@ class RedisServer:
 
 
 def start_redis(folder: Path, port: int | None = None, timeout: float = 10.0,
-                binary: str | None = None) -> RedisServer:
+                binary: str | None = None, aof: bool = False) -> RedisServer:
     """Start a redis-server on loopback (a free port unless ``port``), without
-    persistence, working in ``folder`` (created; it holds ``redis.log``); returns once it
-    answers ``PING``.
+    persistence (with ``aof``: an append-only file, fsync every second, as the deploy
+    guide runs it, so a restart in the same ``folder`` keeps the queue), working in
+    ``folder`` (created; it holds ``redis.log``); returns once it answers ``PING``.
 
     Raises :class:`~inkmotion.errors.ServiceError` (one sentence) when ``redis-server``
     is not installed or does not come up within ``timeout`` seconds.
@@ -132,8 +133,9 @@ def start_redis(folder: Path, port: int | None = None, timeout: float = 10.0,
     server_log = folder / "redis.log"
     with open(server_log, "wb") as log:
         proc = subprocess.Popen(
-            [binary, "--port", str(port), "--bind", HOST, "--save", "", "--appendonly", "no",
-             "--daemonize", "no", "--dir", str(folder)],
+            [binary, "--port", str(port), "--bind", HOST, "--save", "",
+             "--appendonly", "yes" if aof else "no", "--appendfsync", "everysec",
+             "--maxmemory-policy", "noeviction", "--daemonize", "no", "--dir", str(folder)],
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     server = RedisServer(proc, port, folder)
     if not wait_for_redis(port, timeout):
@@ -220,3 +222,116 @@ class WorkerPool:
         """Stop every worker: SIGTERM (Celery's warm shutdown), SIGKILL after 10 s."""
         for name in list(self.procs):
             stop_process(self.procs.pop(name))
+
+
+def postgres_bin_dir() -> Path | None:
+    """The folder of the PostgreSQL server programs (Debian's newest
+    /usr/lib/postgresql/N/bin, else ``postgres`` on PATH), or None when not installed."""
+    debian = sorted(Path("/usr/lib/postgresql").glob("*/bin/postgres"),
+                    key=lambda p: int(p.parent.parent.name) if p.parent.parent.name.isdigit()
+                    else 0)
+    if debian:
+        return debian[-1].parent
+    found = shutil.which("postgres")
+    return Path(found).parent if found else None
+
+
+@dataclass
+class PostgresServer:
+    """A throw-away PostgreSQL server (see :func:`start_postgres`)."""
+
+    proc: subprocess.Popen[bytes]
+    port: int
+    folder: Path
+    bin_dir: Path
+
+    def url(self, database: str = "inkmotion") -> str:
+        """The SQLAlchemy URL of ``database`` (psycopg 3 driver)."""
+        return f"postgresql+psycopg://inkmotion@{HOST}:{self.port}/{database}"
+
+    def create_database(self, name: str) -> str:
+        """Create the database ``name``; returns its URL."""
+        import psycopg
+
+        with psycopg.connect(f"host={HOST} port={self.port} user=inkmotion dbname=postgres",
+                             autocommit=True) as conn:
+            conn.execute(f'CREATE DATABASE "{name}"')
+        return self.url(name)
+
+    def halt(self, grace: float = 10.0) -> None:
+        """Stop the server (its data stays: :meth:`resume` starts it again)."""
+        stop_process(self.proc, grace=grace)
+
+    def resume(self, timeout: float = 30.0) -> None:
+        """Start the halted server again on the same port and data."""
+        self.proc = _launch_postgres(self.bin_dir, self.folder, self.port)
+        _wait_postgres(self, timeout)
+
+    def stop(self, grace: float = 10.0) -> None:
+        """Stop the server and remove its folder."""
+        stop_process(self.proc, grace=grace)
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _as_postgres_user(cmd: list[str]) -> list[str]:
+    """``cmd`` run as the ``postgres`` user when we are root (PostgreSQL refuses root)."""
+    if os.geteuid() != 0:
+        return cmd
+    return ["runuser", "-u", "postgres", "--", *cmd]
+
+
+def _launch_postgres(bin_dir: Path, folder: Path, port: int) -> subprocess.Popen[bytes]:
+    with open(folder / "postgres.log", "ab") as log:
+        return subprocess.Popen(_as_postgres_user([
+            str(bin_dir / "postgres"), "-D", str(folder / "data"), "-p", str(port), "-k",
+            str(folder), "-c", f"listen_addresses={HOST}", "-c", "fsync=off", "-c",
+            "full_page_writes=off"]), stdout=log, stderr=subprocess.STDOUT,
+            start_new_session=True)
+
+
+def _wait_postgres(server: PostgresServer, timeout: float) -> None:
+    import psycopg
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and server.proc.poll() is None:
+        try:
+            psycopg.connect(f"host={HOST} port={server.port} user=inkmotion dbname=postgres",
+                            connect_timeout=2).close()
+            return
+        except psycopg.OperationalError:
+            time.sleep(0.2)
+    raise ServiceError(f"PostgreSQL did not start on port {server.port} within {timeout:g} s;"
+                       f" see {server.folder / 'postgres.log'}.")
+
+
+def start_postgres(port: int | None = None, timeout: float = 30.0) -> PostgresServer:
+    """Initialise and start a PostgreSQL server on loopback (a free port unless ``port``)
+    in a new temporary folder, trust authentication for the user ``inkmotion``, fsync off
+    (a test server); returns once it accepts connections. Raises
+    :class:`~inkmotion.errors.ServiceError` when PostgreSQL is not installed or does not
+    come up."""
+    import tempfile
+
+    bin_dir = postgres_bin_dir()
+    if bin_dir is None:
+        raise ServiceError("PostgreSQL is not installed; install it with "
+                           "`apt-get install postgresql`.")
+    folder = Path(tempfile.mkdtemp(prefix="inkmotion-pg-"))
+    folder.chmod(0o755)
+    if os.geteuid() == 0:
+        shutil.chown(folder, "postgres", "postgres")
+    init = subprocess.run(_as_postgres_user([str(bin_dir / "initdb"), "-D",
+                                             str(folder / "data"), "-A", "trust", "-U",
+                                             "inkmotion", "-E", "UTF8", "--no-sync"]),
+                          capture_output=True, text=True)
+    if init.returncode != 0:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise ServiceError(f"initdb failed: {init.stderr.strip().splitlines()[-1:]}")
+    port = port or free_port()
+    server = PostgresServer(_launch_postgres(bin_dir, folder, port), port, folder, bin_dir)
+    try:
+        _wait_postgres(server, timeout)
+    except ServiceError:
+        server.stop()
+        raise
+    return server

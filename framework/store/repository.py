@@ -287,7 +287,8 @@ def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None,
         where.append(Job.lease_owner == owner)
     stmt = (update(Job).where(*where)
             .values(status="succeeded", artifact_dir=artifact_dir, finished_at=now,
-                    updated_at=now, error=None, lease_owner=None, lease_until=None, **values)
+                    updated_at=now, error=None, lease_owner=None, lease_until=None,
+                    step=Job.total, **values)  # all steps ran, whatever progress last said
             .execution_options(synchronize_session=False))
     with Session(get_engine(_db_url(db_url))) as s, s.begin():
         return s.execute(stmt).rowcount == 1
