@@ -232,8 +232,8 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
         "stages": staged.stages,
         "metrics": metrics,
     }
-    if job.checkpoints is not None:
-        report["resumed_from_step"] = staged.resumed_from_step
+    if job.checkpoints is not None:  # the job record's metrics carry it too
+        report["resumed_from_step"] = metrics["resumed_from_step"] = staged.resumed_from_step
         report["checkpoints"] = {"written": job.checkpoints.saved,
                                  "write_s": round(job.checkpoints.save_s, 4)}
     recorded = _recorded_peaks(job, drawing)

@@ -275,6 +275,7 @@ def test_sigterm_hands_the_running_job_back_at_once(worker_pool, service_env, tm
         r = store.get_job(job_id)
         report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
         assert r.attempts == 2 and report["resumed_from_step"] >= 120
+        assert r.metrics["resumed_from_step"] == report["resumed_from_step"]  # the record
         assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
     finally:
         pool.procs.pop(name, None)
