@@ -126,7 +126,8 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
 
 
 class _StageCheckpoint:
-    """The job's :class:`~inkmotion.jobs.checkpoint.Checkpoints` seen from one stage: steps
+    """The job's checkpoints (an object with ``due``, ``save`` and ``load``, the job
+    shell's) seen from one stage: steps
     numbered across the stages, and the stage's own state added to what the optimiser
     hands over (which stage, the plans it started from, the record so far)."""
 
@@ -140,7 +141,7 @@ class _StageCheckpoint:
         return bool(self.checkpoints.due(self.done + step))
 
     def save(self, step: int, state: dict[str, Any]) -> None:
-        from inkmotion.jobs.checkpoint import rng_states
+        from inkmotion.rng import rng_states
 
         self.checkpoints.save(self.done + step, {
             **state, "stage": self.stage, "step_in_stage": step, "stage_plans": self.plans,
@@ -152,7 +153,7 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
                   observers: object = None, checkpoints: Any = None) -> StagedFit:
     """Fit ``plans`` to the input ``strokes`` (canvas px) in stages (module docstring).
 
-    ``checkpoints`` (a :class:`~inkmotion.jobs.checkpoint.Checkpoints`, not in ``auto``
+    ``checkpoints`` (the job's checkpoints, with ``due``/``save``/``load``; not in ``auto``
     mode) receives the fit's state as it goes; when it already holds one of this job, the
     fit resumes from it: the same result as an uninterrupted run, bit for bit on the CPU.
     ``StagedFit.resumed_from_step`` says from where (0: from the start)."""
@@ -176,7 +177,7 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     saved = checkpoints.load() if checkpoints is not None else None
     start_stage, resume, initial = 0, None, None
     if saved is not None:
-        from inkmotion.jobs.checkpoint import restore_rng
+        from inkmotion.rng import restore_rng
 
         dtype, device = plans[0].points.dtype, plans[0].points.device
         start_stage, done, record = saved["stage"], saved["done"], list(saved["record"])

@@ -16,10 +16,11 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import random
 import time
 from pathlib import Path
 from typing import Any
+
+from inkmotion.rng import restore_rng, rng_states  # noqa: F401  (re-exported)
 
 #: defaults: a checkpoint every this many steps or seconds, whichever comes first
 EVERY_STEPS = 50
@@ -29,24 +30,6 @@ EVERY_S = 30.0
 def spec_fingerprint(spec: dict[str, Any]) -> str:
     """A short hash of the job spec (its JSON, keys sorted)."""
     return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:16]
-
-
-def rng_states() -> dict[str, Any]:
-    """The states of torch's, NumPy's and Python's global generators."""
-    import numpy as np
-    import torch
-
-    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(),
-            "python": random.getstate()}
-
-
-def restore_rng(states: dict[str, Any]) -> None:
-    import numpy as np
-    import torch
-
-    torch.set_rng_state(states["torch"])
-    np.random.set_state(states["numpy"])
-    random.setstate(states["python"])
 
 
 class Checkpoints:
