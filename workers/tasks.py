@@ -80,6 +80,29 @@ def job_log(path: Path) -> Iterator[None]:
         handler.close()
 
 
+#: how long a final write (succeeded, failed) keeps retrying a briefly unreachable database
+FINAL_WRITE_RETRY_S = 60.0
+
+
+def with_db_retry(write: Any, *args: Any, **kwargs: Any) -> Any:
+    """``write(*args, **kwargs)``, retried with backoff (0.5 s doubling to 8 s) for up to
+    :data:`FINAL_WRITE_RETRY_S` seconds while the database is unreachable: the job's
+    result is complete on disk and must be recorded by this attempt, not by a retry."""
+    import sqlalchemy.exc
+
+    deadline = time.monotonic() + FINAL_WRITE_RETRY_S
+    delay = 0.5
+    while True:
+        try:
+            return write(*args, **kwargs)
+        except (sqlalchemy.exc.OperationalError, sqlalchemy.exc.InterfaceError) as exc:
+            if time.monotonic() + delay > deadline:
+                raise
+            log.warning("job store unreachable (%s); retrying in %.1f s", exc, delay)
+            time.sleep(delay)
+            delay = min(8.0, 2 * delay)
+
+
 def clean_stale_attempts(artifacts: Path) -> None:
     """Remove staging leftovers (``artifacts.partial-*``, ``artifacts.old-*``) of attempts
     that were killed; never the complete ``artifacts`` folder itself."""
@@ -187,8 +210,8 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
             store.mark_failed(job_id, f"Internal error {type(exc).__name__}: {exc} "
                                       f"(see `inkmotion jobs logs {job_id}`).", db)
             return "failed"
-        if not store.mark_succeeded(job_id, str(artifacts), db,
-                                    metrics=report.get("metrics"), owner=owner):
+        if not with_db_retry(store.mark_succeeded, job_id, str(artifacts), db,
+                             metrics=report.get("metrics"), owner=owner):
             log.warning("job %s finished but its record was no longer running", job_id)
             return "cancelled"
         log.info("job %s succeeded in %.1f s", job_id, time.perf_counter() - started)
