@@ -17,11 +17,13 @@ $(VENV)/.installed: pyproject.toml | $(VENV)/bin/python
 	$(PIP) install -q -e .
 	touch $@
 
-# the test extras, and a job kind written outside the package (tests/plugin_package),
-# installed like any third-party plugin so the tests can check it is picked up
-$(VENV)/.installed-test: pyproject.toml tests/plugin_package/pyproject.toml | $(VENV)/bin/python
+# the test extras, and plugins written outside the package (tests/plugin_package, the
+# example of docs/plugins.md in examples/), installed like any third-party plugin so the
+# tests can check they are picked up
+$(VENV)/.installed-test: pyproject.toml tests/plugin_package/pyproject.toml examples/inkmotion-example-plugin/pyproject.toml | $(VENV)/bin/python
 	$(PIP) install -q -e ".[test]"
 	$(PIP) install -q -e tests/plugin_package
+	$(PIP) install -q -e examples/inkmotion-example-plugin
 	touch $@ $(VENV)/.installed
 
 venv: $(VENV)/.installed
