@@ -229,12 +229,15 @@ def authors_moves(traces: Any, size: float) -> int:
     return moves_at(strokes, relevance_threshold(DEFAULT_RELEVANCE, size))
 
 
-def motion_figures(item_dir: Path, source: str) -> dict[str, Any]:
-    """Speed peaks of the fit, against the recording's when ``source`` has time stamps, and
-    the paper's evaluation ratios (:func:`inkmotion.evaluation.fit_motion.item_figures`)."""
-    from inkmotion.evaluation.fit_motion import item_figures
+def motion_figures(item_dir: Path, report: dict[str, Any]) -> dict[str, Any]:
+    """Speed peaks of the fit, against the recording's when the input has time stamps (from
+    the fit's report, which measured them), and the paper's evaluation ratios of its plan
+    (:mod:`inkmotion.evaluation.fit_motion`)."""
+    from inkmotion.evaluation.fit_motion import evaluation_ratios, report_figures
+    from inkmotion.sigma_lognormal import Drawing
 
-    return item_figures(item_dir, source)
+    ratios = evaluation_ratios(Drawing.load(Path(item_dir) / "plan.json"))
+    return {**report_figures(report), **ratios}
 
 
 def _flatten(figures: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -271,7 +274,7 @@ def run_item(source: str, folder: str, spec: dict[str, Any]) -> dict[str, Any]:
                 "error": f"internal error ({type(exc).__name__}: {exc}); please report it.",
                 "wall_s": round(time.perf_counter() - started, 3)}
     try:
-        row.update(_flatten(motion_figures(Path(folder), source)))
+        row.update(_flatten(motion_figures(Path(folder), report)))
     except Exception as exc:  # the fit stands; its motion figures are missing, and say so
         row["motion_error"] = f"{type(exc).__name__}: {exc}"
     return row

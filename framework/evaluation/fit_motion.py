@@ -80,6 +80,22 @@ def evaluation_ratios(drawing: Any) -> dict[str, float]:
     return {f"{short[m]}_{k}": v for m, r in c.ratios.items() for k, v in r.items()}
 
 
+def recorded_columns(human: dict[str, Any]) -> dict[str, Any]:
+    """The benchmark's columns of a recorded agreement (:func:`recorded_agreement`)."""
+    return {"recorded_peaks": human["recorded_peaks"], "matched_peaks": human["matched_peaks"],
+            "recorded_duration_s": human["recorded_duration_s"],
+            "peak_offset": human["mean_position_offset"]}
+
+
+def report_figures(report: dict[str, Any]) -> dict[str, Any]:
+    """The same figures as :func:`item_figures` (without the ratios) read from a fit's
+    report.json, which already holds them: nothing is sampled or read again."""
+    out: dict[str, Any] = {"fit_speed_peaks": report["speed_peaks"]}
+    if report.get("recorded") is not None:
+        out.update(recorded_columns(report["recorded"]))
+    return out
+
+
 def item_figures(item_dir: Path, source: str, *, ratios: bool = True) -> dict[str, Any]:
     """The motion figures of the fit in ``item_dir`` (its plan.json) of ``source``:
     ``fit_speed_peaks``; with time stamps ``recorded_peaks``, ``matched_peaks``,
@@ -91,9 +107,7 @@ def item_figures(item_dir: Path, source: str, *, ratios: bool = True) -> dict[st
     out: dict[str, Any] = {"fit_speed_peaks": fit_speed_peaks(drawing)}
     human = recorded_agreement(source, drawing, Path(item_dir) / "human_speeds.png")
     if human is not None:
-        out.update(recorded_peaks=human["recorded_peaks"], matched_peaks=human["matched_peaks"],
-                   recorded_duration_s=human["recorded_duration_s"],
-                   peak_offset=human["mean_position_offset"])
+        out.update(recorded_columns(human))
     if ratios:
         out.update(evaluation_ratios(drawing))
     return out

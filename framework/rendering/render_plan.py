@@ -20,8 +20,8 @@ MAX_SIZE = 16384
 
 
 def parse_colour(text: str, what: str) -> tuple[float, float, float]:
-    """'#rrggbb' or 'rrggbb' (or a name OpenCV does not need: black, white) as RGB in
-    [0, 1]; an InputError naming ``what`` otherwise."""
+    """'#rrggbb', 'rrggbb' or one of the names black, white, red, blue as RGB in [0, 1];
+    an InputError naming ``what`` otherwise."""
     names = {"black": "000000", "white": "ffffff", "red": "d62728", "blue": "1f3fbf"}
     value = names.get(text.lower(), text.lstrip("#"))
     if len(value) != 6 or any(c not in "0123456789abcdefABCDEF" for c in value):

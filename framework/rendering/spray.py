@@ -79,11 +79,9 @@ def splat_parameters(segments: torch.Tensor, widths: torch.Tensor | float,
 def patch_half(widths: torch.Tensor | float, segments: torch.Tensor,
                spread_cap: float = SPREAD_CAP) -> int:
     """Half side (px) of the splats' patch: ⌈REACH·c·σ_0,max⌉ (one read of the device)."""
-    if segments.shape[2] == 3:
-        sigma0 = float(segments[:, :, 2].detach().abs().max()) if len(segments) else 1.0
-    else:
-        sigma0 = float(torch.as_tensor(widths).detach().max()) / 2 if torch.as_tensor(
-            widths).numel() else 1.0
+    radii = (segments[:, :, 2].abs() if segments.shape[2] == 3
+             else torch.as_tensor(widths) / 2).detach()
+    sigma0 = float(radii.max()) if radii.numel() else 1.0
     return max(1, math.ceil(REACH * spread_cap * max(sigma0, 0.05)))
 
 

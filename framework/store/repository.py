@@ -149,12 +149,22 @@ def list_jobs(status: str | Iterable[str] | None = None, limit: int | None = 50,
         return [_record(j) for j in s.scalars(q).all()]
 
 
-def _update(job_id: str, allowed: Iterable[str], db_url: str | None, **values: Any) -> bool:
-    values.setdefault("updated_at", utcnow())
-    stmt = (update(Job).where(Job.id == job_id, Job.status.in_(list(allowed)))
-            .values(**values).execution_options(synchronize_session=False))
+def _update_where(db_url: str | None, *where: Any, **values: Any) -> bool:
+    """One conditional ``UPDATE jobs SET values WHERE where``; True when it changed a row."""
+    stmt = (update(Job).where(*where).values(**values)
+            .execution_options(synchronize_session=False))
     with Session(get_engine(_db_url(db_url))) as s, s.begin():
         return s.execute(stmt).rowcount == 1
+
+
+def _update(job_id: str, allowed: Iterable[str], db_url: str | None, **values: Any) -> bool:
+    values.setdefault("updated_at", utcnow())
+    return _update_where(db_url, Job.id == job_id, Job.status.in_(list(allowed)), **values)
+
+
+def _owned(job_id: str, owner: str) -> tuple[Any, ...]:
+    """The conditions "running under ``owner``'s lease"."""
+    return (Job.id == job_id, Job.status == "running", Job.lease_owner == owner)
 
 
 #: seconds a running attempt's lease lasts without a renewal (INKMOTION_LEASE_S overrides)
@@ -169,16 +179,12 @@ def mark_running(job_id: str, worker_host: str, db_url: str | None = None, *,
     ``False`` otherwise: the job finished (cancelled, succeeded, failed) or another
     attempt holds a live lease: do not run it."""
     now = utcnow()
-    stmt = (update(Job).where(Job.id == job_id, or_(
-        Job.status == "queued",
-        and_(Job.status == "running",
-             or_(Job.lease_until.is_(None), Job.lease_until < now))))
-        .values(status="running", attempts=Job.attempts + 1, worker_host=worker_host,
-                started_at=now, updated_at=now, step=0, error=None, lease_owner=owner,
-                lease_until=now + timedelta(seconds=lease_s))
-        .execution_options(synchronize_session=False))
-    with Session(get_engine(_db_url(db_url))) as s, s.begin():
-        return s.execute(stmt).rowcount == 1
+    free = or_(Job.status == "queued", and_(
+        Job.status == "running", or_(Job.lease_until.is_(None), Job.lease_until < now)))
+    return _update_where(db_url, Job.id == job_id, free, status="running",
+                         attempts=Job.attempts + 1, worker_host=worker_host, started_at=now,
+                         updated_at=now, step=0, error=None, lease_owner=owner,
+                         lease_until=now + timedelta(seconds=lease_s))
 
 
 def renew_lease(job_id: str, owner: str, db_url: str | None = None,
@@ -186,13 +192,8 @@ def renew_lease(job_id: str, owner: str, db_url: str | None = None,
     """The heartbeat of attempt ``owner``: extend its lease by ``lease_s`` seconds from now.
     ``False`` when the job is no longer running under this owner (cancelled, finished,
     or re-queued after the lease expired): the attempt must stop and write nothing."""
-    now = utcnow()
-    stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
-                              Job.lease_owner == owner)
-            .values(lease_until=now + timedelta(seconds=lease_s))
-            .execution_options(synchronize_session=False))
-    with Session(get_engine(_db_url(db_url))) as s, s.begin():
-        return s.execute(stmt).rowcount == 1
+    return _update_where(db_url, *_owned(job_id, owner),
+                         lease_until=utcnow() + timedelta(seconds=lease_s))
 
 
 def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
@@ -207,12 +208,9 @@ def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
             Job.lease_until < now)).all()
     requeued = []
     for job_id in candidates:
-        stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
-                                  Job.lease_until < now)
-                .values(status="queued", lease_owner=None, lease_until=None, updated_at=now)
-                .execution_options(synchronize_session=False))
-        with Session(engine) as s, s.begin():
-            won = s.execute(stmt).rowcount == 1
+        won = _update_where(db_url, Job.id == job_id, Job.status == "running",
+                            Job.lease_until < now, status="queued", lease_owner=None,
+                            lease_until=None, updated_at=now)
         if won:
             record = get_job(job_id, db_url)
             if record is not None:
@@ -223,12 +221,8 @@ def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
 def release(job_id: str, owner: str, db_url: str | None = None) -> bool:
     """Attempt ``owner`` hands its running job back: status queued, no lease, at once (a
     worker shutting down). ``False`` when the job is no longer this attempt's."""
-    stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
-                              Job.lease_owner == owner)
-            .values(status="queued", lease_owner=None, lease_until=None, updated_at=utcnow())
-            .execution_options(synchronize_session=False))
-    with Session(get_engine(_db_url(db_url))) as s, s.begin():
-        return s.execute(stmt).rowcount == 1
+    return _update_where(db_url, *_owned(job_id, owner), status="queued", lease_owner=None,
+                         lease_until=None, updated_at=utcnow())
 
 
 def update_progress(job_id: str, step: int, total: int, losses: dict[str, float] | None = None,
@@ -241,13 +235,9 @@ def update_progress(job_id: str, step: int, total: int, losses: dict[str, float]
         return _update(job_id, ("running",), db_url, step=step, total=total, losses=losses,
                        t_end=t_end)
     now = utcnow()
-    stmt = (update(Job).where(Job.id == job_id, Job.status == "running",
-                              Job.lease_owner == owner)
-            .values(step=step, total=total, losses=losses, t_end=t_end, updated_at=now,
-                    lease_until=now + timedelta(seconds=lease_s))
-            .execution_options(synchronize_session=False))
-    with Session(get_engine(_db_url(db_url))) as s, s.begin():
-        return s.execute(stmt).rowcount == 1
+    return _update_where(db_url, *_owned(job_id, owner), step=step, total=total,
+                         losses=losses, t_end=t_end, updated_at=now,
+                         lease_until=now + timedelta(seconds=lease_s))
 
 
 def _json_value(value: Any) -> Any:
@@ -282,16 +272,12 @@ def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None,
     if metrics is not None:
         values["metrics"] = _json_value(dict(metrics))
     now = utcnow()
-    where = [Job.id == job_id, Job.status == "running"]
-    if owner is not None:
-        where.append(Job.lease_owner == owner)
-    stmt = (update(Job).where(*where)
-            .values(status="succeeded", artifact_dir=artifact_dir, finished_at=now,
-                    updated_at=now, error=None, lease_owner=None, lease_until=None,
-                    step=Job.total, **values)  # all steps ran, whatever progress last said
-            .execution_options(synchronize_session=False))
-    with Session(get_engine(_db_url(db_url))) as s, s.begin():
-        return s.execute(stmt).rowcount == 1
+    where = _owned(job_id, owner) if owner is not None else (Job.id == job_id,
+                                                             Job.status == "running")
+    return _update_where(db_url, *where, status="succeeded", artifact_dir=artifact_dir,
+                         finished_at=now, updated_at=now, error=None, lease_owner=None,
+                         lease_until=None, step=Job.total,  # all steps ran, whatever
+                         **values)  # the last progress write said
 
 
 def mark_failed(job_id: str, error: str, db_url: str | None = None) -> bool:
