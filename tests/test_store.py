@@ -161,14 +161,14 @@ def test_record_lifecycle(db_url):
 
 def test_leases_are_renewed_by_their_owner_and_reaped_once(db_url):
     r = store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
-    assert store.mark_running(r.id, "w1", db_url, owner="a", lease_s=0.2)
-    assert store.renew_lease(r.id, "a", db_url, lease_s=0.2)
+    assert store.mark_running(r.id, "w1", db_url, owner="a", lease_s=1.5)
+    assert store.renew_lease(r.id, "a", db_url, lease_s=1.5)
     assert not store.renew_lease(r.id, "b", db_url)  # not b's lease
-    assert store.update_progress(r.id, 1, 5, db_url=db_url, owner="a", lease_s=0.2)
+    assert store.update_progress(r.id, 1, 5, db_url=db_url, owner="a", lease_s=1.5)
     assert not store.update_progress(r.id, 2, 5, db_url=db_url, owner="b")
     assert not store.get_job(r.id, db_url).stalled
     assert store.requeue_expired(db_url) == []  # alive: nothing to reap
-    time.sleep(0.3)
+    time.sleep(1.7)
     assert store.get_job(r.id, db_url).stalled
     reaped = store.requeue_expired(db_url)
     assert [j.id for j in reaped] == [r.id] and reaped[0].status == "queued"
