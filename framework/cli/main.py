@@ -1,7 +1,8 @@
 """The ``inkmotion`` command line (typer).
 
 One module per command group: :mod:`~inkmotion.cli.run`, :mod:`~inkmotion.cli.submit`,
-:mod:`~inkmotion.cli.jobs`, :mod:`~inkmotion.cli.worker` and :mod:`~inkmotion.cli.view`,
+:mod:`~inkmotion.cli.jobs`, :mod:`~inkmotion.cli.worker`, :mod:`~inkmotion.cli.view` and
+:mod:`~inkmotion.cli.gallery`,
 each with a ``register(app)``; ``plugins`` and ``bench`` live here. Start-up matters (every
 command pays it): modules on this path import typer, rich, the standard library and light
 project modules (errors, job specs) only; torch, NumPy, the job store, Celery and rerun are
@@ -19,7 +20,18 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from inkmotion.cli import benchmark, clip, evaluate, jobs, render, run, submit, view, worker
+from inkmotion.cli import (
+    benchmark,
+    clip,
+    evaluate,
+    gallery,
+    jobs,
+    render,
+    run,
+    submit,
+    view,
+    worker,
+)
 from inkmotion.cli.errors import EXIT_USER, fail, report
 from inkmotion.errors import InkmotionError
 
@@ -92,7 +104,7 @@ def bench_cmd(
 def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
-    for group in (run, submit, evaluate, benchmark, render, jobs, worker, view, clip):
+    for group in (run, submit, evaluate, benchmark, render, jobs, worker, view, gallery, clip):
         group.register(app)
 
 
