@@ -7,7 +7,7 @@ PIP := $(PY) -m pip
 DEMO_OUT ?= results/demo
 DEMO_INPUT ?= text:inkmotion
 
-.PHONY: demo test venv test-venv redis postgres lint bench clean
+.PHONY: demo test venv test-venv redis postgres browser gallery lint bench clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -50,10 +50,40 @@ postgres:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq postgresql >/dev/null; }
 
+## browser: the gallery's browser tests drive Debian's Chromium; install it if missing
+browser:
+	@{ command -v chromium >/dev/null && command -v chromedriver >/dev/null; } || { \
+	  echo "installing chromium and chromium-driver (Debian packages)"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium chromium-driver >/dev/null; }
+
 ## test: create .venv with the test extras, run the whole suite
-test: test-venv redis postgres
+test: test-venv redis postgres browser
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q
+
+## gallery: the curated example set (Hershey words, a spray preview, a simulated drawing,
+## an evaluation) -> gallery/out, its site -> gallery/site, screenshots -> gallery/screenshots;
+## only missing results are computed again
+GALLERY_WORDS := $(shell cat gallery/words.txt)
+GALLERY_SPRAY ?= motion
+GALLERY_FITS := $(GALLERY_WORDS:%=gallery/out/fit-%/plan.json)
+
+gallery/out/fit-%/plan.json: | $(VENV)/.installed
+	$(VENV)/bin/inkmotion run fit "text:$*" --size 500 \
+	  $(if $(filter $*,$(GALLERY_SPRAY)),--spray-preview) --out gallery/out/fit-$*
+
+gallery/out/robot-hello/job.json: gallery/out/fit-hello/plan.json
+	$(VENV)/bin/inkmotion run simulate $< --out gallery/out/robot-hello
+
+gallery/out/evaluate-inkmotion/job.json: gallery/out/fit-inkmotion/plan.json
+	$(VENV)/bin/inkmotion run evaluate $< --out gallery/out/evaluate-inkmotion
+
+gallery: test-venv browser $(GALLERY_FITS) gallery/out/robot-hello/job.json \
+         gallery/out/evaluate-inkmotion/job.json
+	$(VENV)/bin/inkmotion gallery build --no-store --from gallery/out --out gallery/site \
+	  --title "inkmotion: the curated gallery"
+	$(PY) -m inkmotion.gallery.browser gallery/site gallery/screenshots run-fit-$(GALLERY_SPRAY)-
 
 lint: test-venv
 	$(VENV)/bin/ruff check .

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-pytest_plugins = ["service_fixtures"]
+pytest_plugins = ["service_fixtures", "gallery_fixtures"]
 
 
 @pytest.fixture(params=[

@@ -79,6 +79,8 @@ def job_store(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, str],
     ["jobs", "list", "--help"],
     ["view", "--help"],
     ["worker", "--help"],
+    ["gallery", "--help"],
+    ["gallery", "build", "--help"],
 ])
 def test_help_loads_no_heavy_module(job_store: tuple[dict[str, str], str],
                                     argv: list[str]) -> None:
@@ -113,6 +115,17 @@ def test_view_finds_the_recording_without_rerun(job_store: tuple[dict[str, str],
     assert result["code"] == 0, result["stderr"]
     assert f"{job_id}/artifacts/recording.rrd" in result["stdout"].replace("\n", "")
     assert result["loaded"] == []
+
+
+def test_gallery_build_loads_no_torch(job_store: tuple[dict[str, str], str], tmp_path) -> None:
+    """Building the gallery reads the store and the artifacts, never torch nor rerun (a
+    job with images imports OpenCV for its thumbnail; these have none)."""
+    env, job_id = job_store
+    result = probe(env, "gallery", "build", "--out", str(tmp_path / "site"))
+    assert result["code"] == 0, result["stderr"]
+    assert "gallery: 2 jobs (2 built" in result["stdout"]
+    assert (tmp_path / "site" / "jobs" / job_id / "files" / "recording.rrd").is_file()
+    assert not {"torch", "rerun", "celery", "matplotlib"} & set(result["loaded"])
 
 
 def test_user_errors_load_no_heavy_module(job_store: tuple[dict[str, str], str]) -> None:

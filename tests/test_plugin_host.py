@@ -69,6 +69,12 @@ def test_third_party_and_broken_plugins(tmp_path, monkeypatch) -> None:
     assert "not_a_real_module_xyz" in h.broken[0].error
     with pytest.raises(PluginError, match="failed to load"):
         h.get("renderer", "broken")
+    # asked for by the name its object would have had (not its entry point's), the error
+    # still points at the package that failed
+    with pytest.raises(PluginError, match=r"Unknown renderer plugin 'blnk'; available: .*"
+                       r"1 plugin package\(s\) failed to load and may hold it: 'broken' from "
+                       r".*`inkmotion plugins` says why"):
+        h.get("renderer", "blnk")
     for name in ("tp_good", "tp_broken"):
         sys.modules.pop(name, None)
 
@@ -79,8 +85,9 @@ def test_hook_signature_is_verified() -> None:
         def inkmotion_renderers(self, unexpected_argument):  # not in the spec
             return []
 
-    with pytest.raises(PluginError, match="invalid hook"):
+    with pytest.raises(PluginError, match="invalid hook") as info:
         PluginHost().register(Wrong(), name="wrong")
+    assert "\n" not in str(info.value) and "unexpected_argument" in str(info.value)
 
 
 def test_unknown_hook_fails_early(tmp_path, monkeypatch) -> None:

@@ -67,6 +67,11 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
 
         return bench_generation(device=device)
 
+    def gallery() -> dict:
+        from inkmotion.benchmarks.gallery import bench_gallery
+
+        return bench_gallery()
+
     def tsp() -> dict:
         from inkmotion.benchmarks.tsp import bench_tsp, format_table
 
@@ -76,7 +81,7 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
 
     return {"kinematics": kinematics, "raster": raster, "spray": spray, "fit": fit,
             "recording": recording,
-            "queue": queue, "generation": generation, "tsp": tsp}
+            "queue": queue, "generation": generation, "gallery": gallery, "tsp": tsp}
 
 
 def _on(bench: Callable[..., dict], device: str) -> dict:

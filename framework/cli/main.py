@@ -69,8 +69,9 @@ def bench_cmd(
     only: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
         "--only",
         help="Run only these: kinematics, raster, spray, fit, recording (the default set), "
-             "queue (opt-in: starts a local redis-server and 2 workers) or generation "
-             "(opt-in: CLIP tag and abstract seconds per step).")] = None,
+             "queue (opt-in: starts a local redis-server and 2 workers), generation "
+             "(opt-in: CLIP tag and abstract seconds per step) or gallery (opt-in: build "
+             "the gallery of 100 jobs, rebuild it after one more).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
         help="Input of the fit benchmark (default: ../shared 49867.json, else text:inkmotion).")
     ] = None,
@@ -87,6 +88,8 @@ def bench_cmd(
       inkmotion bench --only kinematics --only raster
 
       inkmotion bench --only queue
+
+      inkmotion bench --only gallery
 
       inkmotion bench --only generation --device cuda
 

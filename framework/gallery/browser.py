@@ -73,8 +73,9 @@ def full_page_screenshot(driver: Any, path: Path, max_height: int = 2400) -> Non
 
 
 def screenshots(site: Path, out: Path, job: str | None = None) -> list[Path]:
-    """Screenshots of the gallery's index and of one job's page (``job``, default the
-    first card), opened from ``file://``; returns their paths."""
+    """Screenshots of the gallery's index and of one job's page (the first card whose id
+    starts with ``job``; default the first card), opened from ``file://``; returns their
+    paths."""
     index = (site / "index.html").resolve()
     with chromium() as driver:
         driver.get(index.as_uri())
@@ -84,7 +85,8 @@ def screenshots(site: Path, out: Path, job: str | None = None) -> list[Path]:
         if not ids:
             return [out / "index.png"]
         driver.set_window_size(1280, 900)
-        driver.get((site / "jobs" / (job or ids[0]) / "index.html").resolve().as_uri())
+        chosen = next((i for i in ids if i.startswith(job or "")), ids[0])
+        driver.get((site / "jobs" / chosen / "index.html").resolve().as_uri())
         full_page_screenshot(driver, out / "detail.png", max_height=3200)
     return [out / "index.png", out / "detail.png"]
 

@@ -162,13 +162,16 @@ def _csv_table(path: Path) -> tuple[list[str], list[list[str]]] | None:
     return rows[0], [[cell(c) for c in row] for row in rows[1:]]
 
 
-def _commands(entry: Entry, page_dir: Path) -> dict[str, str]:
-    """The commands that reproduce and replay the job, with absolute paths."""
+def _commands(entry: Entry, page_dir: Path, has_spec: bool) -> dict[str, str]:
+    """The commands that reproduce and replay the job, with absolute paths (``page_dir``:
+    where the job's page will be; ``has_spec``: it holds files/spec.json)."""
     commands: dict[str, str] = {}
     config = entry.job_json if entry.job_json is not None else page_dir / "files" / "spec.json"
-    if entry.job_json is not None or (page_dir / "files" / "spec.json").is_file():
+    if entry.job_json is not None or has_spec:
+        again = (f"{entry.artifacts.name}-again" if entry.source == "folder" and entry.artifacts
+                 else entry.id[:8])
         commands["reproduce"] = (f"inkmotion run --config {_quote(config)} "
-                                 f"--out results/{entry.id[:12]}")
+                                 f"--out results/{again}")
     if "recording.rrd" in entry.files and entry.artifacts is not None:
         target = entry.id if entry.source == "store" else str(entry.artifacts / "recording.rrd")
         commands["replay"] = f"inkmotion view {_quote(target)}"
@@ -200,12 +203,15 @@ def _downloads(entry: Entry, files_dir: Path) -> list[tuple[str, str]]:
 def _card(entry: Entry, thumb: bool) -> dict[str, Any]:
     """What the index needs of a job (kept in the manifest, so an unchanged job's card is
     drawn without reading its files again)."""
-    metrics = [(k, summary.show(entry.metrics[k])) for k in CARD_METRICS
-               if k in entry.metrics and k != "t_end_ratio"]
+    names = [k for k in CARD_METRICS if k in entry.metrics and k != "t_end_ratio"]
+    if not names:  # another kind (a plugin's): its own first three figures
+        names = [k for k, v in entry.metrics.items() if isinstance(v, (int, float))][:3]
+    metrics = [(k, summary.show(entry.metrics[k])) for k in names]
     params = summary.key_parameters(entry.kind, entry.params)
     search = " ".join([entry.id, entry.kind, entry.status, entry.label,
                        *(f"{k}={v}" for k, v in params)]).lower()
     return {"id": entry.id, "kind": entry.kind, "status": entry.status, "label": entry.label,
+            "title": summary.short_label(entry.label),
             "created": entry.created.isoformat(timespec="seconds") if entry.created else "",
             "created_shown": entry.created.strftime("%Y-%m-%d %H:%M") if entry.created else "",
             "duration": summary.duration(entry.duration_s),
@@ -219,7 +225,7 @@ def _card(entry: Entry, thumb: bool) -> dict[str, Any]:
 
 def _build_job(entry: Entry, out: Path, env: Any) -> dict[str, Any]:
     """Stage and commit ``jobs/<id>/``; return the job's card."""
-    from inkmotion.outputs import StagingDir
+    from inkmotion.outputs.atomic import StagingDir
 
     final = out / "jobs" / entry.id
     with StagingDir(final) as stage:
@@ -238,7 +244,8 @@ def _build_job(entry: Entry, out: Path, env: Any) -> dict[str, Any]:
         page = env.get_template("job.html.j2").render(
             root="../../", card=card, entry=entry,
             figures=_figures(entry), downloads=_downloads(entry, files_dir),
-            commands=_commands(entry, final), evaluation=evaluation,
+            commands=_commands(entry, final, (files_dir / "spec.json").is_file()),
+            evaluation=evaluation,
             metrics=[(k, summary.show(v)) for k, v in entry.metrics.items()],
             params=[(k, summary.show(v)) for k, v in summary.flatten(entry.params).items()],
             changed={k for k, _ in summary.key_parameters(entry.kind, entry.params)},

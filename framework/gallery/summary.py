@@ -111,6 +111,14 @@ def figure_name(key: str) -> str:
     return FIGURE_NAMES.get(key, key.replace("_", " "))
 
 
+def short_label(label: str) -> str:
+    """An input as a card's title: a file path shortened to its last two parts."""
+    parts = [p for p in label.replace("\\", "/").split("/") if p]
+    if "/" in label and len(parts) > 2 and ":" not in label.split("/")[0][1:]:
+        return "…/" + "/".join(parts[-2:])
+    return label
+
+
 def duration(seconds: float | None) -> str:
     """``42.1 s``, ``3 min 05 s``, ``1 h 02 min``; ``—`` when unknown."""
     if seconds is None:

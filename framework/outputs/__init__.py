@@ -1,10 +1,21 @@
-"""Output writers: SVG, PNG and overlay images, speed plot, trajectory CSV, atomic files."""
+"""Output writers: SVG, PNG and overlay images, speed plot, trajectory CSV, atomic files.
 
+The writers load on first use (PEP 562): :class:`StagingDir` is needed by code that must
+not import torch (the gallery), the image writers import it.
+"""
+
+from __future__ import annotations
+
+from inkmotion.lazy import lazy_names
 from inkmotion.outputs.atomic import StagingDir
-from inkmotion.outputs.images import write_overlay, write_png
-from inkmotion.outputs.speed_plot import write_speed_plot
-from inkmotion.outputs.svg import write_svg
-from inkmotion.outputs.trajectory_csv import write_trajectory_csv
+
+_LAZY = {
+    "write_overlay": "inkmotion.outputs.images",
+    "write_png": "inkmotion.outputs.images",
+    "write_speed_plot": "inkmotion.outputs.speed_plot",
+    "write_svg": "inkmotion.outputs.svg",
+    "write_trajectory_csv": "inkmotion.outputs.trajectory_csv",
+}
 
 __all__ = [
     "StagingDir",
@@ -14,3 +25,5 @@ __all__ = [
     "write_svg",
     "write_trajectory_csv",
 ]
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, globals(), __all__)

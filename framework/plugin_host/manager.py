@@ -80,8 +80,8 @@ class PluginHost:
         try:
             self.pm.register(module, name=name)
         except pluggy.PluginValidationError as exc:
-            raise PluginError(f"Plugin {label!r} from {origin} has an invalid hook: {exc}") \
-                from exc
+            raise PluginError(f"Plugin {label!r} from {origin} has an invalid hook: "
+                              f"{_one_line(exc)}") from exc
         except ValueError as exc:  # registered twice under one name
             raise PluginError(f"Plugin {label!r} from {origin}: {exc}") from exc
         try:
@@ -90,7 +90,7 @@ class PluginHost:
         except pluggy.PluginValidationError as exc:
             self.pm.unregister(module)
             raise PluginError(f"Plugin {label!r} from {origin} implements a hook that does "
-                              f"not exist: {exc}") from exc
+                              f"not exist: {_one_line(exc)}") from exc
         except Exception:
             self.pm.unregister(module)
             raise
@@ -145,7 +145,12 @@ class PluginHost:
         if broken:
             raise PluginError(f"The {kind} plugin {name!r} failed to load ({broken[0].error}).")
         names = ", ".join(sorted(available)) or "none"
-        raise PluginError(f"Unknown {kind} plugin {name!r}; available: {names}.")
+        failed = ""
+        if self.broken:  # the one asked for may be among them, under its entry-point name
+            shown = ", ".join(f"{b.name!r} from {b.origin}" for b in self.broken)
+            failed = (f" {len(self.broken)} plugin package(s) failed to load and may hold it: "
+                      f"{shown}; `inkmotion plugins` says why.")
+        raise PluginError(f"Unknown {kind} plugin {name!r}; available: {names}.{failed}")
 
     def table(self) -> list[PluginInfo]:
         """Every plugin with kind, name, origin and one-line description, broken ones last."""
@@ -156,6 +161,11 @@ class PluginHost:
             for obj in self.plugins(kind).values()
         ]
         return rows + self.broken
+
+
+def _one_line(exc: BaseException) -> str:
+    """pluggy's multi-line validation message as one line."""
+    return "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
 
 
 @functools.lru_cache(maxsize=1)

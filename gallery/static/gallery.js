@@ -13,9 +13,9 @@
 
   function readHash() {
     var params = new URLSearchParams(window.location.hash.replace(/^#/, ""));
-    if (params.has("kind")) kind.value = params.get("kind");
-    if (params.has("status")) status.value = params.get("status");
-    if (params.has("q")) text.value = params.get("q");
+    kind.value = params.get("kind") || "";
+    status.value = params.get("status") || "";
+    text.value = params.get("q") || "";
   }
 
   function writeHash() {
