@@ -287,3 +287,32 @@ def test_command_line_build_and_serve(gallery_jobs, tmp_path):
         server.wait(10)
     missing = inkmotion_cli("gallery", "serve", "--out", str(tmp_path / "nothing"))
     assert missing.returncode == 2 and "build it first" in missing.stderr
+
+
+@pytest.mark.services
+def test_jobs_run_by_real_workers_are_in_the_gallery(workers, service_env, tmp_path):
+    """Submitted through Redis, run by Celery workers, recorded in the store: the gallery
+    built from the store and the data directory shows them, pages and files."""
+    words = tmp_path / "words.txt"
+    words.write_text("ok\nyes\n")
+    res = inkmotion_cli("submit", "fit", "--batch-words", str(words), "--steps", "4",
+                        "--size", "64", "--json")
+    assert res.returncode == 0, res.stderr
+    ids = [j["id"] for j in json.loads(res.stdout)]
+    assert len(ids) == 2
+    waited = inkmotion_cli("jobs", "wait", *ids, "--timeout", "120", "--quiet", timeout=150)
+    assert waited.returncode == 0, waited.stderr
+    site = tmp_path / "site"
+    built = inkmotion_cli("gallery", "build", "--out", str(site))
+    assert built.returncode == 0, built.stderr
+    shown = cards(site)
+    for job_id in ids:
+        assert shown[job_id]["data-status"] == "succeeded"
+        page = Page(site / "jobs" / job_id / "index.html")
+        assert page.text("pre", id="command-replay") == f"inkmotion view {job_id}"
+        artifacts = Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "artifacts"
+        assert page.text("pre", id="command-reproduce").startswith(
+            f"inkmotion run --config {artifacts / 'job.json'} --out results/{job_id[:8]}")
+        assert (site / "jobs" / job_id / "files" / "plan.json").read_bytes() == \
+            (artifacts / "plan.json").read_bytes()
+        assert (site / "jobs" / job_id / "thumb.png").is_file()
