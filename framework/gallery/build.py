@@ -80,14 +80,16 @@ def _environment(templates: Path | None) -> Any:
 
 
 def _site_hash(templates: Path | None) -> str:
-    """Changes when a template, a static file or the inkmotion version does."""
+    """Changes when a template, a static file, the gallery's own code (what a page shows
+    of a job) or the inkmotion version does."""
     import inkmotion
 
     h = hashlib.sha256(inkmotion.__version__.encode())
-    for folder in [assets_dir() / "templates", assets_dir() / "static",
-                   *([templates] if templates else [])]:
-        for p in sorted(folder.rglob("*")):
-            if p.is_file():
+    sources = [(assets_dir() / "templates", "*"), (assets_dir() / "static", "*"),
+               (Path(__file__).parent, "*.py"), *([(templates, "*")] if templates else [])]
+    for folder, pattern in sources:
+        for p in sorted(folder.rglob(pattern)):
+            if p.is_file() and "__pycache__" not in p.parts:
                 h.update(p.name.encode())
                 h.update(p.read_bytes())
     return h.hexdigest()[:20]
