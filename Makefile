@@ -62,8 +62,8 @@ test: test-venv redis postgres browser
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q
 
-## gallery: the curated example set (Hershey words, a spray preview, a simulated drawing,
-## an evaluation) -> gallery/out, its site -> gallery/site, screenshots -> gallery/screenshots;
+## gallery: the curated example set (Hershey words; one with a spray preview, its simulated drawing
+## and its evaluation) -> gallery/out, its site -> gallery/site, screenshots -> gallery/screenshots;
 ## only missing results are computed again
 GALLERY_WORDS := $(shell cat gallery/words.txt)
 GALLERY_SPRAY ?= motion
@@ -73,14 +73,14 @@ gallery/out/fit-%/plan.json: | $(VENV)/.installed
 	$(VENV)/bin/inkmotion run fit "text:$*" --size 500 \
 	  $(if $(filter $*,$(GALLERY_SPRAY)),--spray-preview) --out gallery/out/fit-$*
 
-gallery/out/robot-hello/job.json: gallery/out/fit-hello/plan.json
-	$(VENV)/bin/inkmotion run simulate $< --out gallery/out/robot-hello
+gallery/out/robot-$(GALLERY_SPRAY)/job.json: gallery/out/fit-$(GALLERY_SPRAY)/plan.json
+	$(VENV)/bin/inkmotion run simulate $< --out gallery/out/robot-$(GALLERY_SPRAY)
 
-gallery/out/evaluate-inkmotion/job.json: gallery/out/fit-inkmotion/plan.json
-	$(VENV)/bin/inkmotion run evaluate $< --out gallery/out/evaluate-inkmotion
+gallery/out/evaluate-$(GALLERY_SPRAY)/job.json: gallery/out/fit-$(GALLERY_SPRAY)/plan.json
+	$(VENV)/bin/inkmotion run evaluate $< --out gallery/out/evaluate-$(GALLERY_SPRAY)
 
-gallery: test-venv browser $(GALLERY_FITS) gallery/out/robot-hello/job.json \
-         gallery/out/evaluate-inkmotion/job.json
+gallery: test-venv browser $(GALLERY_FITS) gallery/out/robot-$(GALLERY_SPRAY)/job.json \
+         gallery/out/evaluate-$(GALLERY_SPRAY)/job.json
 	$(VENV)/bin/inkmotion gallery build --no-store --from gallery/out --out gallery/site \
 	  --title "inkmotion: the curated gallery"
 	$(PY) -m inkmotion.gallery.browser gallery/site gallery/screenshots run-fit-$(GALLERY_SPRAY)-

@@ -128,6 +128,18 @@ def test_detail_page_shows_figures_evaluation_downloads_and_commands(gallery_job
     robot = Page(site / "jobs" / by_kind["simulate"] / "index.html")
     assert "files/sim_drawing.png" in {a["src"] for a in robot.find("img")}
 
+    # jobs made from the fit's plan: its page shows their simulated drawing and evaluation
+    # table, theirs link back to it
+    assert f"../{by_kind['simulate']}/files/sim_drawing.png" in images | {
+        a["src"] for a in fit.find("img")}
+    used_by = (site / "jobs" / by_kind["fit"] / "index.html").read_text()
+    used_by = used_by[used_by.index('id="used-by"'):]
+    assert f"../{by_kind['evaluate']}/index.html" in used_by and "msj" in used_by.lower()
+    for page in (evaluation, robot):
+        (link,) = page.find("a", id="made-from")
+        assert link["href"] == f"../{by_kind['fit']}/index.html"
+    assert store_fit.find("a", id="made-from") == []
+
 
 def test_the_reproduce_command_reproduces_the_job(gallery_jobs, tmp_path):
     build(gallery_jobs, tmp_path / "site")
@@ -316,3 +328,17 @@ def test_jobs_run_by_real_workers_are_in_the_gallery(workers, service_env, tmp_p
         assert (site / "jobs" / job_id / "files" / "plan.json").read_bytes() == \
             (artifacts / "plan.json").read_bytes()
         assert (site / "jobs" / job_id / "thumb.png").is_file()
+
+
+def test_a_page_is_rebuilt_when_a_job_made_from_its_plan_goes(gallery_jobs, tmp_path):
+    results = tmp_path / "results"
+    for name in ("fit-hi", "fit-hi-eval"):
+        shutil.copytree(gallery_jobs.results / name, results / name)
+    site = tmp_path / "site"
+    first = build_gallery(collect(store=False, folders=[results]), site)
+    (fit_id,) = [i for i in first.built if i.startswith("run-fit-hi-") and "eval" not in i]
+    assert 'id="used-by"' in (site / "jobs" / fit_id / "index.html").read_text()
+    shutil.rmtree(results / "fit-hi-eval")
+    second = build_gallery(collect(store=False, folders=[results]), site)
+    assert second.built == [fit_id] and len(second.removed) == 1
+    assert 'id="used-by"' not in (site / "jobs" / fit_id / "index.html").read_text()

@@ -36,6 +36,7 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.gallery import summary
 from inkmotion.gallery.entries import CARD_METRICS, DOWNLOADS, FIGURES, Entry
+from inkmotion.gallery.relations import Relations, relate
 
 MANIFEST = "manifest.json"
 THUMB_WIDTH = 360  # px, the card's thumbnail (twice its CSS width for sharp screens)
@@ -225,7 +226,29 @@ def _card(entry: Entry, thumb: bool) -> dict[str, Any]:
             "problem": entry.problem, "search": search}
 
 
-def _build_job(entry: Entry, out: Path, env: Any) -> dict[str, Any]:
+def _link(entry: Entry) -> dict[str, Any]:
+    """Another job as a page links to it."""
+    return {"id": entry.id, "kind": entry.kind, "title": summary.short_label(entry.label),
+            "href": f"../{entry.id}/index.html"}
+
+
+def _related(entry: Entry, relations: Relations, by_id: dict[str, Entry]) -> dict[str, Any]:
+    """What the page shows of the jobs made from this job's plan (a simulated drawing, an
+    evaluation table) and a link to the job whose plan it used."""
+    made_from = relations.made_from.get(entry.id)
+    used_by = []
+    for other in (by_id[i] for i in relations.used_by.get(entry.id, [])):
+        item = _link(other)
+        figure = "sim_drawing.png" if "sim_drawing.png" in other.files else other.thumbnail
+        item["figure"] = f"../{other.id}/files/{figure}" if figure else None
+        item["evaluation"] = (_csv_table(other.artifacts / "evaluation.csv")
+                              if other.artifacts and "evaluation.csv" in other.files else None)
+        used_by.append(item)
+    return {"made_from": _link(by_id[made_from]) if made_from else None, "used_by": used_by}
+
+
+def _build_job(entry: Entry, out: Path, env: Any,
+               related: dict[str, Any]) -> dict[str, Any]:
     """Stage and commit ``jobs/<id>/``; return the job's card."""
     from inkmotion.outputs.atomic import StagingDir
 
@@ -247,7 +270,7 @@ def _build_job(entry: Entry, out: Path, env: Any) -> dict[str, Any]:
             root="../../", card=card, entry=entry,
             figures=_figures(entry), downloads=_downloads(entry, files_dir),
             commands=_commands(entry, final, (files_dir / "spec.json").is_file()),
-            evaluation=evaluation,
+            evaluation=evaluation, related=related,
             metrics=[(k, summary.show(v)) for k, v in entry.metrics.items()],
             params=[(k, summary.show(v)) for k, v in summary.flatten(entry.params).items()],
             changed={k for k, _ in summary.key_parameters(entry.kind, entry.params)},
@@ -290,12 +313,19 @@ def build_gallery(entries: Iterable[Entry], out: str | Path, *,
     report = BuildReport(out=out)
     cards: list[dict[str, Any]] = []
     jobs: dict[str, Any] = {}
+    entries = list(entries)
+    by_id = {e.id: e for e in entries}
+    relations = relate(entries)
+    own = {e.id: e.fingerprint() for e in entries}
     for entry in entries:
-        fingerprint = entry.fingerprint()
+        # a page shows something of its related jobs: it is rebuilt when one of them changes
+        mixed = [own[entry.id], *sorted((i, own[i]) for i in relations.related(entry.id))]
+        fingerprint = hashlib.sha256(json.dumps(mixed).encode()).hexdigest()[:20]
         old = known.get(entry.id)
         fresh = (old is not None and old.get("fingerprint") == fingerprint
                  and (out / "jobs" / entry.id / "index.html").is_file())
-        card = old["card"] if fresh else _build_job(entry, out, env)
+        card = old["card"] if fresh else _build_job(
+            entry, out, env, _related(entry, relations, by_id))
         if fresh:
             report.unchanged += 1
         else:
