@@ -25,6 +25,7 @@ import csv
 import hashlib
 import json
 import os
+import shlex
 import shutil
 import time
 from collections.abc import Callable, Iterable
@@ -182,8 +183,6 @@ def _commands(entry: Entry, page_dir: Path, has_spec: bool) -> dict[str, str]:
 
 
 def _quote(value: Any) -> str:
-    import shlex
-
     return shlex.quote(str(value))
 
 

@@ -136,6 +136,9 @@ def from_record(record: Any) -> Entry:
     spec = record.spec if isinstance(record.spec, dict) else {}
     job_json = artifacts / "job.json" if artifacts and (artifacts / "job.json").is_file() \
         else None
+    if job_json is not None:  # the resolved spec (every default filled in) of the run
+        job, _ = _read_json(job_json)
+        spec = job["spec"] if isinstance(job.get("spec"), dict) else spec
     return Entry(id=record.id, source="store", kind=record.kind, status=record.status,
                  label=record.label or ", ".join(map(str, (spec.get("inputs") or {}).values())),
                  created=record.created_at, duration_s=duration, t_end_ratio=t_end,
