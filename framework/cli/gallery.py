@@ -59,7 +59,16 @@ def build_cmd(
     ] = None,
     title: Annotated[str, typer.Option(help="The index page's title.")] = "inkmotion gallery",
 ) -> None:
-    """Build the gallery (incrementally: only new or changed jobs are rebuilt)."""
+    """Build the gallery (incrementally: only new or changed jobs are rebuilt).
+
+    Examples:
+
+      inkmotion gallery build
+
+      inkmotion gallery build --from results --out site --title "My tags"
+
+      inkmotion gallery build --no-store --from results --out site --full
+    """
     from tqdm import tqdm
 
     from inkmotion.gallery import build_gallery, collect
@@ -85,7 +94,13 @@ def serve_cmd(
     out_dir: OutOpt = None,
     port: Annotated[int, typer.Option(help="Port on 127.0.0.1 (0: any free one).")] = 8000,
 ) -> None:
-    """Serve a built gallery on http://127.0.0.1:PORT until Ctrl-C."""
+    """Serve a built gallery on http://127.0.0.1:PORT until Ctrl-C.
+
+    The site also opens from file:// (its index.html); serve it to see it as a static web
+    host shows it. Any static server works the same (nginx, `python -m http.server`).
+
+    Example: inkmotion gallery serve --out site --port 8000
+    """
     import functools
     import http.server
 
