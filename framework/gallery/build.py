@@ -166,12 +166,12 @@ def _csv_table(path: Path) -> tuple[list[str], list[list[str]]] | None:
     return rows[0], [[cell(c) for c in row] for row in rows[1:]]
 
 
-def _commands(entry: Entry, page_dir: Path, has_spec: bool) -> dict[str, str]:
+def _commands(entry: Entry, page_dir: Path) -> dict[str, str]:
     """The commands that reproduce and replay the job, with absolute paths (``page_dir``:
-    where the job's page will be; ``has_spec``: it holds files/spec.json)."""
+    where the job's page will be)."""
     commands: dict[str, str] = {}
     config = entry.job_json if entry.job_json is not None else page_dir / "files" / "spec.json"
-    if entry.job_json is not None or has_spec:
+    if entry.job_json is not None or entry.writes_spec:
         again = (f"{entry.artifacts.name}-again" if entry.source == "folder" and entry.artifacts
                  else entry.id[:8])
         commands["reproduce"] = (f"inkmotion run --config {_quote(config)} "
@@ -202,14 +202,13 @@ def _downloads(entry: Entry, files_dir: Path) -> list[tuple[str, str]]:
     return [(n, summary.size((files_dir / n).stat().st_size)) for n in names]
 
 
-def _card(entry: Entry, thumb: bool) -> dict[str, Any]:
+def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str, Any]:
     """What the index needs of a job (kept in the manifest, so an unchanged job's card is
-    drawn without reading its files again)."""
+    drawn without reading its files again); ``params``: its key parameters."""
     names = [k for k in CARD_METRICS if k in entry.metrics and k != "t_end_ratio"]
     if not names:  # another kind (a plugin's): its own first three figures
         names = [k for k, v in entry.metrics.items() if isinstance(v, (int, float))][:3]
     metrics = [(k, summary.show(entry.metrics[k])) for k in names]
-    params = summary.key_parameters(entry.kind, entry.params)
     search = " ".join([entry.id, entry.kind, entry.status, entry.label,
                        *(f"{k}={v}" for k, v in params)]).lower()
     return {"id": entry.id, "kind": entry.kind, "status": entry.status, "label": entry.label,
@@ -258,21 +257,22 @@ def _build_job(entry: Entry, out: Path, env: Any,
         files_dir.mkdir()
         for name in entry.files:
             _link_or_copy(entry.artifacts / name, files_dir / name)  # type: ignore[operator]
-        if entry.job_json is None and entry.source == "store":
+        if entry.writes_spec:
             (files_dir / "spec.json").write_text(json.dumps(entry.spec, indent=1))
         thumb = entry.thumbnail
         has_thumb = bool(thumb) and _thumbnail(files_dir / thumb, stage.path / "thumb.png")
-        card = _card(entry, has_thumb)
+        key_params = summary.key_parameters(entry.kind, entry.params)
+        card = _card(entry, has_thumb, key_params)
         evaluation = (_csv_table(files_dir / "evaluation.csv")
                       if "evaluation.csv" in entry.files else None)
         page = env.get_template("job.html.j2").render(
             root="../../", card=card, entry=entry,
             figures=_figures(entry), downloads=_downloads(entry, files_dir),
-            commands=_commands(entry, final, (files_dir / "spec.json").is_file()),
+            commands=_commands(entry, final),
             evaluation=evaluation, related=related,
             metrics=[(k, summary.show(v)) for k, v in entry.metrics.items()],
             params=[(k, summary.show(v)) for k, v in summary.flatten(entry.params).items()],
-            changed={k for k, _ in summary.key_parameters(entry.kind, entry.params)},
+            changed={k for k, _ in key_params},
             wide=WIDE_FIGURES,
             stages=entry.report.get("stages") if isinstance(entry.report.get("stages"), list)
             else None,
@@ -305,9 +305,9 @@ def build_gallery(entries: Iterable[Entry], out: str | Path, *,
         not full else {}
     (out / "jobs").mkdir(parents=True, exist_ok=True)
     static = out / "static"
-    if static.exists():
-        shutil.rmtree(static)
-    shutil.copytree(assets_dir() / "static", static)
+    if previous.get("site") != site or not static.is_dir():  # new templates or static files
+        shutil.rmtree(static, ignore_errors=True)
+        shutil.copytree(assets_dir() / "static", static)
 
     report = BuildReport(out=out)
     cards: list[dict[str, Any]] = []

@@ -23,7 +23,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from inkmotion.errors import ServiceError, SpecError
+from inkmotion.errors import InputError, ServiceError, SpecError
+from inkmotion.json_files import read_json
 
 #: images a job may write, in the order a detail page shows them, with their captions; the
 #: first present is the card's thumbnail. Other PNGs (a plugin's own) follow, by name.
@@ -62,7 +63,6 @@ class Entry:
     duration_s: float | None
     t_end_ratio: float | None
     metrics: dict[str, Any]
-    params: dict[str, Any]  # the spec's parameters as JSON
     spec: dict[str, Any]  # the whole spec (job.json's, or the store's for a job not run yet)
     artifacts: Path | None  # the artifact folder when it exists
     files: list[str] = field(default_factory=list)  # its regular files, sorted
@@ -73,6 +73,18 @@ class Entry:
     job_json: Path | None = None  # the job.json that reproduces it
 
     @property
+    def params(self) -> dict[str, Any]:
+        """The spec's parameters as JSON."""
+        params = self.spec.get("params")
+        return params if isinstance(params, dict) else {}
+
+    @property
+    def writes_spec(self) -> bool:
+        """A store job with no job.json yet (queued, running, failed): its page holds the
+        store's spec as files/spec.json, to run it again from."""
+        return self.job_json is None and self.source == "store"
+
+    @property
     def thumbnail(self) -> str | None:
         """The artifact the card shows (the first of :data:`FIGURES` present)."""
         return next((name for name, _ in FIGURES if name in self.files), None)
@@ -81,7 +93,7 @@ class Entry:
         """A hash of everything the job's page shows: its figures and its files' names,
         sizes and modification times; the page is rebuilt when it changes."""
         state: list[Any] = [self.id, self.kind, self.status, self.label, self.duration_s,
-                            self.t_end_ratio, self.metrics, self.params, self.progress,
+                            self.t_end_ratio, self.metrics, self.spec, self.progress,
                             self.error, self.problem, str(self.artifacts),
                             str(self.job_json)]
         if self.artifacts is not None:
@@ -103,9 +115,9 @@ def _read_json(path: Path) -> tuple[dict[str, Any], str | None]:
     if not path.is_file():
         return {}, None
     try:
-        value = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        return {}, f"{path} is unreadable ({exc.__class__.__name__}: {exc})"
+        value = read_json(path, InputError, "JSON file")
+    except (InputError, OSError) as exc:
+        return {}, f"{path.name} is unreadable: {exc}"
     if not isinstance(value, dict):
         return {}, f"{path} does not hold a JSON object"
     return value, None
@@ -142,7 +154,7 @@ def from_record(record: Any) -> Entry:
     return Entry(id=record.id, source="store", kind=record.kind, status=record.status,
                  label=record.label or ", ".join(map(str, (spec.get("inputs") or {}).values())),
                  created=record.created_at, duration_s=duration, t_end_ratio=t_end,
-                 metrics=metrics, params=dict(spec.get("params") or {}), spec=spec,
+                 metrics=metrics, spec=spec,
                  artifacts=artifacts, files=_files(artifacts), progress=progress,
                  error=record.error, problem=problem or bad, report=report,
                  job_json=job_json)
@@ -169,7 +181,7 @@ def from_folder(folder: Path) -> Entry:
                  label=", ".join(map(str, inputs.values())) or folder.name, created=created,
                  duration_s=_number(report.get("wall_s")),
                  t_end_ratio=_number(metrics.get("t_end_ratio")), metrics=metrics,
-                 params=dict(spec.get("params") or {}), spec=spec, artifacts=folder,
+                 spec=spec, artifacts=folder,
                  files=_files(folder), problem=bad_job or bad_report, report=report,
                  job_json=folder / "job.json")
 

@@ -136,8 +136,9 @@ def size(n: int) -> str:
     """File size: ``812 B``, ``14.2 kB``, ``3.1 MB``."""
     if n < 1000:
         return f"{n} B"
-    for unit in ("kB", "MB", "GB"):
-        n /= 1000
-        if n < 1000 or unit == "GB":
-            return f"{n:.1f} {unit}"
-    return f"{n} B"
+    value, unit = n / 1000, "kB"
+    for bigger in ("MB", "GB"):
+        if value < 1000:
+            break
+        value, unit = value / 1000, bigger
+    return f"{value:.1f} {unit}"
