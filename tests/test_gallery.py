@@ -338,6 +338,12 @@ def test_a_page_is_rebuilt_when_a_job_made_from_its_plan_goes(gallery_jobs, tmp_
     first = build_gallery(collect(store=False, folders=[results]), site)
     (fit_id,) = [i for i in first.built if i.startswith("run-fit-hi-") and "eval" not in i]
     assert 'id="used-by"' in (site / "jobs" / fit_id / "index.html").read_text()
+    # a later run with the same plan bytes does not take the evaluation over
+    time.sleep(0.05)
+    shutil.copytree(results / "fit-hi", results / "fit-hi-later")
+    (results / "fit-hi-later" / "job.json").touch()
+    later = build_gallery(collect(store=False, folders=[results]), site)
+    assert len(later.built) == 1 and later.built[0].startswith("run-fit-hi-later-")
     shutil.rmtree(results / "fit-hi-eval")
     second = build_gallery(collect(store=False, folders=[results]), site)
     assert second.built == [fit_id] and len(second.removed) == 1

@@ -2,8 +2,8 @@
 
 A job that takes a plan (a ``plan`` input, as ``evaluate`` and ``simulate`` do) is linked
 to the job that wrote that plan: the job whose plan.json is that very file, else one whose
-plan.json has the same bytes (a submitted job works on its own copy of its input, in its
-own folder).
+plan.json has the same bytes, the first that wrote them (a submitted job works on its own
+copy of its input, in its own folder).
 """
 
 from __future__ import annotations
@@ -39,13 +39,17 @@ class Relations:
 def relate(entries: list[Entry]) -> Relations:
     """Link every plan-taking job to the job (of ``entries``) that wrote its plan."""
     by_path: dict[Path, str] = {}
-    by_content: dict[str, str] = {}
+    by_content: dict[str, tuple[float, str]] = {}  # plan bytes -> (created, job)
     for e in entries:
         if e.artifacts is not None and "plan.json" in e.files:
             by_path[(e.artifacts / "plan.json").resolve()] = e.id
             digest = plan_digest(e.artifacts / "plan.json")
-            if digest is not None:
-                by_content.setdefault(digest, e.id)
+            created = e.created.timestamp() if e.created else 0.0
+            if digest is not None and (digest not in by_content
+                                       or created < by_content[digest][0]):
+                # the first job that wrote these bytes: a later identical run does not
+                # take the links over (nor make every related page rebuild)
+                by_content[digest] = (created, e.id)
     relations = Relations()
     for e in entries:
         inputs = e.spec.get("inputs") if isinstance(e.spec.get("inputs"), dict) else {}
@@ -54,7 +58,7 @@ def relate(entries: list[Entry]) -> Relations:
             continue
         # the very file first (a job run on a results folder's plan), else the same bytes
         source = by_path.get(Path(plan).resolve()) or by_content.get(
-            plan_digest(Path(plan)) or "")
+            plan_digest(Path(plan)) or "", (0.0, None))[1]
         if source is not None and source != e.id:
             relations.made_from[e.id] = source
             relations.used_by.setdefault(source, []).append(e.id)
