@@ -47,6 +47,9 @@ class FitParams:
                                  minimum=0, flag="--lambda")
     w_image: float = param(200.0, "Weight of the image loss.", minimum=0)
     w_sigma: float = param(10.0, "Weight of Var(Δt) in the smoothing cost.", minimum=0)
+    w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
+                           "from the input polylines, both ways (0: the image alone).",
+                           minimum=0)
     w_canvas: float = param(1.0, "Weight of the term keeping targets on the canvas.",
                             minimum=0)
     lr_points: float = param(2.0, "Learning rate of the virtual targets, px.", minimum=0)
@@ -58,9 +61,11 @@ class FitParams:
                             minimum=0, maximum=1)
     samples_per_move: int = param(5, "Bézier segments per lognormal on the fitting grid.",
                                   minimum=1, maximum=100)
-    smooth_over: str = param("drawing", "Normalise the minimum-time cost over the whole "
-                             "drawing (ΣT_end/Σm) or per path (the authors': mean T_end/m).",
-                             choices=("drawing", "path"))
+    smooth_over: str = param("pooled", "The minimum-time cost: 'pooled' (ΣT_end/Σm and one "
+                             "Var(Δt) over all the drawing's overlaps), 'drawing' (ΣT_end/Σm, "
+                             "Var(Δt) per path, averaged) or 'path' (the authors': mean over "
+                             "paths of T_end/m + w_σ·Var(Δt)).",
+                             choices=("pooled", "drawing", "path"))
     targets: str = param("default", "Sub-movements: 'default' (the initialiser's sparse "
                          "plan, refined), N (about N in all) or 'auto' (the fewest that "
                          "reach --max-error).")
@@ -69,6 +74,10 @@ class FitParams:
                         minimum=0, maximum=10)
     merge: bool = param(True, "Merge two sub-movements whose overlap Δt sits on its floor "
                         "between fit stages.")
+    rollback: bool = param(True, "Undo a plan edit whose refit fits the input worse (by "
+                           "Chamfer mean/0.6 + max/8 px at 350 px) and go on from before it.")
+    keep_corners: bool = param(True, "Merges never remove the target of a sharp corner or "
+                               "hook of the input (a turn of 60° or more).")
     spray_preview: bool = param(False, "Also write spray.png, the spray-paint preview of "
                                 "the result (seeded by the job's seed).")
     max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
@@ -93,7 +102,8 @@ class FitParams:
         count = target_count(self.targets)
         mode = self.targets if count is None else "fixed"
         return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
-                              max_error=self.max_error)
+                              max_error=self.max_error, rollback=self.rollback,
+                              protect_corners=self.keep_corners)
 
 
 def target_count(targets: str) -> int | None:
@@ -164,7 +174,8 @@ def _fit(job: Job) -> dict[str, Any]:
               for c in p.losses}
     objective = Objective(renderer, losses, canvas, Weights(
         p.lambda_smooth, p.w_image, p.w_sigma, p.w_canvas, p.samples_per_move,
-        p.smooth_over))
+        p.smooth_over, p.w_trace), trace=_trace_term(traces, plans, dtype, job.device)
+        if p.w_trace > 0 else None)
     settings = OptimiserSettings(p.steps, p.lr_points, p.lr_delta_t, p.lr_delta, p.lr_ac,
                                  p.lr_final)
     job.start(canvas, target, traces.strokes)
@@ -172,6 +183,17 @@ def _fit(job: Job) -> dict[str, Any]:
     staged = fit_in_stages(plans, objective, settings, strokes, p.refine_settings(),
                            job.observers, checkpoints=job.checkpoints)
     return _write(job, traces, staged, canvas, target)
+
+
+def _trace_term(traces: Any, plans: list, dtype: Any, device: Any) -> Any:
+    """The trace term of the fit (:mod:`inkmotion.fitting.trace_loss`), each stroke owned by
+    the paths whose initial trajectory follows it."""
+    from inkmotion.fitting.trace_loss import TraceLoss, TraceReference
+    from inkmotion.outputs.sampling import on_cpu, sample
+
+    reference = TraceReference.of(traces.validated().strokes, dtype=dtype, device=device)
+    owners = reference.ownership([sample(on_cpu(p)).positions for p in plans])
+    return TraceLoss(reference, owners)
 
 
 def traces_to_segments(traces: Any, dtype: Any, device: Any) -> Any:
@@ -212,6 +234,7 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
     drawing = Drawing(size, plans)
     metrics = {"chamfer_mean_px": chamfer_mean, "chamfer_max_px": chamfer_max,
                "t_end_ratio": t1 / t0 if t0 > 0 else float("nan"),
+               "t_end_ratio_multi": t_end_ratio_multi(staged),
                "moves": sum(p.m for p in plans), "delta_t_at_clamp": delta_t_at_clamp(plans),
                "fit_speed_peaks": fit_speed_peaks(drawing)}
     report = {
@@ -225,6 +248,7 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
         "initial_t_end": t0,
         "final_t_end": t1,
         "t_end_ratio": metrics["t_end_ratio"],
+        "t_end_ratio_multi": metrics["t_end_ratio_multi"],
         "chamfer_mean_px": chamfer_mean,
         "chamfer_max_px": chamfer_max,
         "delta_t_at_clamp": metrics["delta_t_at_clamp"],
@@ -258,6 +282,15 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
 
         report["spray_drips"] = write_spray_png(folder / "spray.png", drawing, job.spec.seed)
     return report
+
+
+def t_end_ratio_multi(staged: Any) -> float:
+    """T_end after / before the fit over the paths that began with 2 or more sub-movements
+    (a single lognormal has no overlap to shorten); NaN when there is none."""
+    multi = [i for i, m in enumerate(staged.initial_path_moves) if m >= 2]
+    before = sum(staged.initial_t_end[i] for i in multi)
+    after = sum(staged.result.final_t_end[i] for i in multi)
+    return after / before if before > 0 else float("nan")
 
 
 def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:

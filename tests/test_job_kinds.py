@@ -18,6 +18,8 @@ from inkmotion.jobs.spec import JobSpec, upgrade_v1
 from inkmotion.plugin_host import PluginHost, hookimpl, host
 
 V1 = Path(__file__).parent / "data" / "v1_job"
+#: a job.json and plan.json written by spec version 3 (before issue 19's trace term)
+V3 = Path(__file__).parent / "data" / "v3_job"
 
 
 def inkmotion(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
@@ -46,9 +48,26 @@ def test_v1_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     new = json.loads((tmp_path / "o" / "plan.json").read_text())
     assert new == old
     written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
-    assert written["version"] == 3 and written["params"]["initialiser"]["threshold"] == 1.0
+    assert written["version"] == 4 and written["params"]["initialiser"]["threshold"] == 1.0
     assert written["params"]["initialiser"]["bend"] is False
     assert written["params"]["refine"] == 0 and written["params"]["smooth_over"] == "path"
+
+
+def test_v3_job_json_reproduces_its_plan(tmp_path: Path) -> None:
+    """A job.json of spec version 3 (plan edits kept blindly, no trace term) still gives
+    its plan.json bit for bit on the CPU, and is written back as version 4 with those
+    version-3 settings spelled out."""
+    res = inkmotion("run", "--config", str(V3 / "job.json"), "--out", str(tmp_path / "o"),
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "o" / "plan.json").read_bytes() == (V3 / "plan.json").read_bytes()
+    written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
+    assert written["version"] == 4
+    assert written["params"]["w_trace"] == 0.0 and written["params"]["rollback"] is False
+    assert written["params"]["keep_corners"] is False
+    bare = JobSpec.from_dict({"version": 4, "kind": "fit", "inputs": {"drawing": "x"},
+                              "params": {}})
+    assert bare.params == {}  # version 4 leaves its own defaults to the kind
 
 
 def test_a_v2_spec_keeps_the_v2_defaults() -> None:
@@ -56,7 +75,7 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     gives them keeps what it gives; other kinds are unchanged."""
     bare = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
                               "params": {}})
-    assert bare.version == 3
+    assert bare.version == 4
     assert bare.params["steps"] == 300 and bare.params["lambda_smooth"] == 20.0
     assert bare.params["w_sigma"] == 50.0 and bare.params["refine"] == 0
     assert bare.params["smooth_over"] == "path"
@@ -71,7 +90,7 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     assert line.params["initialiser"] == "line"
     tag = JobSpec.from_dict({"version": 2, "kind": "tag", "inputs": {"caption": "x"},
                              "params": {"steps": 5}})
-    assert tag.params == {"steps": 5} and tag.version == 3
+    assert tag.params == {"steps": 5} and tag.version == 4
 
 
 def test_job_json_holds_every_parameter_and_option() -> None:
@@ -110,8 +129,8 @@ def test_bad_spec_fields() -> None:
         resolve(JobSpec("fit", {}))
     with pytest.raises(SpecError, match="has no input.s. photo"):
         resolve(JobSpec("fit", {"drawing": "text:hi", "photo": "x.png"}))
-    with pytest.raises(SpecError, match="spec version 4 is not supported"):
-        JobSpec.from_dict({"version": 4, "kind": "fit", "inputs": {}})
+    with pytest.raises(SpecError, match="spec version 5 is not supported"):
+        JobSpec.from_dict({"version": 5, "kind": "fit", "inputs": {}})
     with pytest.raises(SpecError, match="seed=-1 must be a non-negative integer"):
         JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {}, "seed": -1})
 

@@ -53,6 +53,8 @@ COLUMNS: tuple[tuple[str, str, str, str], ...] = (
     ("chamfer_max_px", "Chamfer max", "px", "input polylines vs fitted trajectory"),
     ("iou", "IoU", "", "rendered fit vs rendered target, coverage > 0.5"),
     ("t_end_ratio", "T_end ratio", "", "T_end after / before the fit"),
+    ("t_end_ratio_multi", "T_end ratio m≥2", "",
+     "T_end after / before over the paths of 2 or more sub-movements"),
     ("delta_t_at_clamp", "Δt at clamp", "share", "Δt_i (i ≥ 2) within 1e-6 of 0.1 or 0.9"),
     ("steps", "steps", "", "Adam steps"),
     ("fit_s", "fit", "s", "optimiser wall time"),
@@ -262,8 +264,8 @@ def run_item(source: str, folder: str, spec: dict[str, Any]) -> dict[str, Any]:
     try:
         job = JobSpec.from_dict({**spec, "inputs": {"drawing": source}})
         report = run_job(job, folder)
-        for key in ("moves", "chamfer_mean_px", "chamfer_max_px", "t_end_ratio", "steps",
-                    "fit_s", "wall_s"):
+        for key in ("moves", "chamfer_mean_px", "chamfer_max_px", "t_end_ratio",
+                    "t_end_ratio_multi", "steps", "fit_s", "wall_s"):
             row[key] = report.get(key)
         row.update(quality_figures(Path(folder)))
     except InkmotionError as exc:

@@ -34,6 +34,11 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom
     if over == "drawing":
         return t_end.sum() / m.sum() + w_sigma * var.mean()
+    if over == "pooled":  # one overlap rhythm over the whole drawing
+        n_used = used.sum().clamp(min=1.0)
+        mean_all = (batch.delta_t * used).sum() / n_used
+        dev_all = (batch.delta_t - mean_all) * used
+        return t_end.sum() / m.sum() + w_sigma * (dev_all * dev_all).sum() / n_used
     assert over == "path", over
     return (t_end / m + w_sigma * var).mean()
 

@@ -35,6 +35,9 @@ AC_MAX = AC_RANGE[1]
 
 Renderer = Callable[[torch.Tensor, torch.Tensor, int, int], torch.Tensor]
 ImageLoss = Callable[[torch.Tensor], torch.Tensor]
+#: (segments (S, 4, D), layout, step) -> 0-d loss: the trace term
+#: (:class:`inkmotion.fitting.trace_loss.TraceLoss`, with ``state``/``load_state``)
+TraceTerm = Callable[[torch.Tensor, GridLayout, "int | None"], torch.Tensor]
 
 
 @dataclass(frozen=True)
@@ -47,6 +50,7 @@ class Weights:
     w_canvas: float = 1.0
     samples_per_move: int = 5
     smooth_over: str = "path"  # "path" (the authors') or "drawing", see fitting.losses
+    w_trace: float = 0.0  # weight of the trace term (fitting.trace_loss), when there is one
 
 
 @dataclass
@@ -62,7 +66,8 @@ class Evaluation:
 
 
 class Objective:
-    """λ·mean_p(T_end/m + w_σ·VarΔt) + w_I·Σ image losses + w_c·canvas term.
+    """λ·mean_p(T_end/m + w_σ·VarΔt) + w_I·Σ image losses + w_c·canvas term
+    (+ w_trace·L_trace when the input's trace is known: ``trace``).
 
     ``static``: static shapes and no device read in a call (None: on any device but the
     CPU, where reading the device is free and sizing per call does less work).
@@ -72,8 +77,9 @@ class Objective:
 
     def __init__(self, renderer: Renderer, image_losses: dict[str, ImageLoss],
                  canvas: tuple[int, int], weights: Weights, *, static: bool | None = None,
-                 check_every: int = 25) -> None:
+                 check_every: int = 25, trace: TraceTerm | None = None) -> None:
         self.renderer = renderer
+        self.trace = trace
         self.image_losses = image_losses
         self.width, self.height = canvas
         self.p = weights
@@ -84,7 +90,9 @@ class Objective:
         self._window_overflow: torch.Tensor | None = None  # 0-d bool on the device
         self._calls = 0
 
-    def __call__(self, batch: PlanBatch) -> Evaluation:
+    def __call__(self, batch: PlanBatch, step: int | None = None) -> Evaluation:
+        """One forward pass; ``step`` is the optimiser's (1-based) step, None for an
+        evaluation outside the loop (terms with state, the trace term, keep theirs)."""
         self._calls += 1
         if self.check_every and self._calls % self.check_every == 0:
             self.replan_if_needed()
@@ -112,7 +120,21 @@ class Objective:
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
         total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
                  + self.p.w_canvas * terms["canvas"])
+        if self.trace is not None:
+            terms["trace"] = self.trace(segments, layout, step)
+            total = total + self.p.w_trace * terms["trace"]
         return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities)
+
+    def state(self) -> dict:
+        """The state of the objective's terms that a resumed fit needs (a checkpoint)."""
+        fn = getattr(self.trace, "state", None)
+        return {"trace": fn()} if fn is not None else {}
+
+    def load_state(self, state: dict) -> None:
+        """Continue with :meth:`state`'s copy (after a first evaluation of the batch)."""
+        fn = getattr(self.trace, "load_state", None)
+        if fn is not None and state.get("trace") is not None:
+            fn(state["trace"])
 
     def replan_if_needed(self) -> bool:
         """Read (once) the device flags saying the kinematics window or the renderer's budget

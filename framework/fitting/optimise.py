@@ -71,6 +71,9 @@ class FitResult:
     rendered: torch.Tensor  # (H, W) final
     wall_s: float
     steps: int
+    #: the optimiser's parameters ``leaves`` and Adam moments ``adam`` after the last step
+    #: (``optimise``'s ``resume`` continues from it, e.g. after a rolled-back plan edit)
+    state: dict | None = None
 
 
 def cosine(step: int, total: int, final: float) -> float:
@@ -221,12 +224,14 @@ def optimise(
     initial_t_end = first.t_end.tolist()
     if resume is not None and "initial_terms" in resume:  # the terms before step 1
         initial_terms, initial_t_end = resume["initial_terms"], resume["initial_t_end"]
+    if resume is not None and resume.get("objective"):
+        objective.load_state(resume["objective"])
     finite = torch.ones((), dtype=torch.bool, device=src.points.device)  # all steps so far
     for step in range(first_step, settings.steps + 1):
         optimiser.zero_grad()
         if three:
             batch = assemble()  # a new graph from the updated leaves
-        ev = objective(batch)
+        ev = objective(batch, step)
         ev.total.backward()
         optimiser.step(cosine(settings.schedule_start + step - 1,
                               settings.schedule_total or settings.steps, settings.lr_final))
@@ -245,7 +250,7 @@ def optimise(
             checkpoint.save(step, {  # type: ignore[attr-defined]
                 "leaves": {k: v.detach().clone() for k, v in leaves.items()},
                 "adam": optimiser.state(), "initial_terms": initial_terms,
-                "initial_t_end": initial_t_end})
+                "initial_t_end": initial_t_end, "objective": objective.state()})
 
     with torch.no_grad():
         batch = assemble()
@@ -265,4 +270,6 @@ def optimise(
         rendered=last.rendered.detach(),
         wall_s=time.perf_counter() - start,
         steps=settings.steps,
+        state={"leaves": {k: v.detach().clone() for k, v in leaves.items()},
+               "adam": optimiser.state()},
     )

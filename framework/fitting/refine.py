@@ -181,13 +181,61 @@ def merge_move(plan: MotorPlan, i: int) -> MotorPlan:
                     p.delta_t[idx], delta[idx], p.ac[idx], p.T[idx])
 
 
-def merge_pinned(plan: MotorPlan) -> tuple[MotorPlan, int]:
+#: degrees: an input that turns by at least this much within :data:`SALIENT_ARM` px of a
+#: target makes it a salient corner (or a hook), whose sub-movement a merge never removes
+SALIENT_TURN_DEG = 60.0
+#: px at a 350-px canvas (scaled with it): the arms over which the input's turn is measured
+SALIENT_ARM = 8.0
+
+
+def _at(xy: np.ndarray, arc: np.ndarray, s: float) -> np.ndarray:
+    """The point (2,) at arc length ``s`` along the polyline ``xy`` (clipped to its ends)."""
+    return np.array([np.interp(s, arc, xy[:, 0]), np.interp(s, arc, xy[:, 1])])
+
+
+def input_turn(strokes: list[np.ndarray], q: np.ndarray, arm: float) -> float:
+    """Degrees the input turns at its point nearest to ``q`` (2,): the angle between the
+    chords from ``arm`` px of arc before that point to it and from it to ``arm`` px after
+    (clipped at the stroke's ends; 0 at an end)."""
+    best, turn = np.inf, 0.0
+    for stroke in strokes:
+        xy = np.asarray(stroke, dtype=np.float64)[:, :2]
+        if len(xy) < 3:
+            continue
+        arc = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+        k = int(np.argmin(np.hypot(*(xy - q[:2]).T)))
+        d = float(np.hypot(*(xy[k] - q[:2])))
+        if d >= best:
+            continue
+        best = d
+        a, b, c = _at(xy, arc, arc[k] - arm), xy[k], _at(xy, arc, arc[k] + arm)
+        u, v = b - a, c - b
+        if np.hypot(*u) < 1e-9 or np.hypot(*v) < 1e-9:
+            turn = 0.0
+            continue
+        turn = math.degrees(math.atan2(abs(u[0] * v[1] - u[1] * v[0]), float(u @ v)))
+    return turn
+
+
+def salient_targets(plan: MotorPlan, strokes: list[np.ndarray], size: float) -> set[int]:
+    """Indices of the interior targets of ``plan`` at which the input turns by at least
+    :data:`SALIENT_TURN_DEG` (a sharp corner or a hook): a merge keeps them."""
+    points = plan.points.detach().cpu().numpy()
+    arm = SALIENT_ARM * float(size) / 350.0
+    return {j for j in range(1, plan.m)
+            if input_turn(strokes, points[j, :2], arm) >= SALIENT_TURN_DEG}
+
+
+def merge_pinned(plan: MotorPlan, keep: set[int] | None = None) -> tuple[MotorPlan, int]:
     """``plan`` with the pairs of sub-movements whose second Δt sits at the floor merged
     into one (module docstring), and how many were merged; pairs are taken from the last
-    to the first, so a merged pair is not merged again in the same edit."""
+    to the first, so a merged pair is not merged again in the same edit. Targets whose
+    index is in ``keep`` (salient corners, :func:`salient_targets`) are never removed."""
     p = plan.detached()
     floor = DELTA_T_RANGE[0]
     pinned = ((p.delta_t - floor).abs() <= FLOOR_TOLERANCE).tolist()
+    for j in keep or ():
+        pinned[j] = False  # merging sub-movement j into j − 1 removes target p_j
     merged = 0
     for i in range(p.m - 1, 0, -1):  # Δt_1 (index 0) is unused
         if pinned[i]:

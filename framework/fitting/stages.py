@@ -36,7 +36,13 @@ import numpy as np
 from inkmotion.events import StepState, wants
 from inkmotion.fitting.objective import Objective
 from inkmotion.fitting.optimise import FitResult, OptimiserSettings, optimise
-from inkmotion.fitting.refine import budget, insert_targets, merge_pinned, worst_misses
+from inkmotion.fitting.refine import (
+    budget,
+    insert_targets,
+    merge_pinned,
+    salient_targets,
+    worst_misses,
+)
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
@@ -54,6 +60,8 @@ class RefineSettings:
     insert_share: float = 0.2  # at most this share of m inserted per edit
     separation: float = 12.0  # px between two inserted targets of one edit
     merge: bool = True  # merge pairs whose Δt is pinned at the floor
+    rollback: bool = True  # default mode: an edit whose refit is worse is undone
+    protect_corners: bool = True  # merges keep the targets of the input's salient corners
     max_error: float = 2.0  # auto: the goal, max Chamfer px
 
 
@@ -68,6 +76,7 @@ class StagedFit:
     stages: list[dict[str, Any]] = field(default_factory=list)
     wall_s: float = 0.0
     resumed_from_step: int = 0
+    initial_path_moves: list[int] = field(default_factory=list)  # m_p of the initial plans
 
 
 class _Offset:
@@ -100,17 +109,11 @@ def _split(total: int, first_share: float, rounds: int) -> list[int]:
     return [first] + [rest // rounds + (1 if k < rest % rounds else 0) for k in range(rounds)]
 
 
-def _chamfer(strokes: list[np.ndarray], plans: list[MotorPlan]) -> tuple[float, float]:
-    from inkmotion.geometry.chamfer import chamfer
-    from inkmotion.outputs.sampling import on_cpu, sample
-
-    return chamfer(strokes, [sample(on_cpu(p)).positions for p in plans])
-
-
 def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
-         above: float, limit: int) -> tuple[list[MotorPlan], int, int]:
+         above: float, limit: int, size: float = 350.0) -> tuple[list[MotorPlan], int, int]:
     """Insert at most ``limit`` targets at the worst misses above ``above`` px, then merge
-    pinned pairs; returns the plans, inserted and merged counts."""
+    pinned pairs (keeping the salient corners of the input on a ``size``-px canvas when
+    ``s.protect_corners``); returns the plans, inserted and merged counts."""
     from inkmotion.outputs.sampling import on_cpu
 
     device, dtype = plans[0].points.device, plans[0].points.dtype
@@ -119,7 +122,8 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     cpu = insert_targets(cpu, misses)
     merged = 0
     if s.merge:
-        edited = [merge_pinned(p) for p in cpu]
+        edited = [merge_pinned(p, salient_targets(p, strokes, size) if s.protect_corners
+                               else None) for p in cpu]
         cpu = [p for p, _ in edited]
         merged = sum(k for _, k in edited)
     return [p.to(device=device, dtype=dtype) for p in cpu], len(misses), merged
@@ -148,6 +152,56 @@ class _StageCheckpoint:
             "done": self.done, "rng": rng_states(), **self.context})
 
 
+@dataclass
+class _Edits:
+    """The default mode's edit state between stages: the last kept stage's result and its
+    quality, the edit its successor was refitted from (None: a plain continuation), and
+    what the next edit may still do after rollbacks."""
+
+    kept: FitResult | None = None
+    quality: tuple[float, float] | None = None  # (mean, max) px of ``kept``
+    pending: dict[str, int] | None = None  # {"inserted": n, "merged": k}
+    merges_allowed: bool = True  # a rolled-back edit with merges: insert only next time
+    frozen: bool = False  # a rolled-back edit without merges: no more edits
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kept": self.kept, "quality": self.quality, "pending": self.pending,
+                "merges_allowed": self.merges_allowed, "frozen": self.frozen}
+
+
+def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
+           entry: dict[str, Any]) -> tuple[FitResult, bool]:
+    """Keep the stage's ``result`` if it was refitted from an edit that improved the
+    criterion (:func:`inkmotion.fitting.quality.criterion`) or from no edit; otherwise roll
+    back to the last kept result. Returns the result to go on from and whether it rolled
+    back; ``entry`` (the stage's record) says what was decided and why."""
+    from inkmotion.fitting.quality import criterion
+
+    if edits.pending is None or edits.kept is None or edits.quality is None:
+        edits.kept, edits.quality = result, quality
+        return result, False
+    before = criterion(*edits.quality, size)
+    after = criterion(*quality, size)
+    entry["edit"] = dict(edits.pending)
+    entry["criterion_before"], entry["criterion_after"] = before, after
+    if after <= before:
+        entry["edit"]["kept"] = True
+        entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
+                                f"{edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
+                                f"{quality[0]:.2f}/{quality[1]:.1f} px)")
+        edits.kept, edits.quality = result, quality
+        return result, False
+    entry["edit"]["kept"] = False
+    entry["edit"]["why"] = (f"rolled back: the criterion went {before:.3f} → {after:.3f} "
+                            f"(Chamfer {edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
+                            f"{quality[0]:.2f}/{quality[1]:.1f} px)")
+    if edits.pending.get("merged", 0) > 0:
+        edits.merges_allowed = False
+    else:
+        edits.frozen = True
+    return edits.kept, True
+
+
 def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: OptimiserSettings,
                   strokes: list[np.ndarray], refine: RefineSettings,
                   observers: object = None, checkpoints: Any = None) -> StagedFit:
@@ -157,6 +211,10 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     mode) receives the fit's state as it goes; when it already holds one of this job, the
     fit resumes from it: the same result as an uninterrupted run, bit for bit on the CPU.
     ``StagedFit.resumed_from_step`` says from where (0: from the start)."""
+    from inkmotion.fitting.quality import chamfer_of
+
+    size = float(max(objective.width, objective.height))
+    rollback = refine.mode == "default" and refine.rollback
     if refine.mode == "auto":
         later = max(50, settings.steps // 4)
         steps = [settings.steps] + [later] * (MAX_AUTO_ROUNDS - 1)
@@ -170,8 +228,11 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     first: FitResult | None = None
     best: tuple[float, FitResult, int] | None = None  # auto: the round with the lowest max
     inserted = merged = added = 0
-    initial_moves = sum(p.m for p in plans)
+    path_moves = [p.m for p in plans]
+    initial_moves = sum(path_moves)
     result: FitResult | None = None
+    edits = _Edits()
+    carry: dict | None = None  # the optimiser state a stage continues from (a rollback)
     if refine.mode == "auto":
         checkpoints = None  # its rounds depend on the measured errors: not resumable
     saved = checkpoints.load() if checkpoints is not None else None
@@ -187,7 +248,10 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         initial = (saved["first_terms"], saved["first_t_end"])
         resume = {"leaves": saved["leaves"], "adam": saved["adam"],
                   "step": saved["step_in_stage"], "initial_terms": saved["initial_terms"],
-                  "initial_t_end": saved["initial_t_end"]}
+                  "initial_t_end": saved["initial_t_end"],
+                  "objective": saved.get("objective")}
+        if "edits" in saved:
+            edits = _Edits(**saved["edits"])
         restore_rng(saved["rng"])
     resumed_from = done + (resume["step"] if resume is not None else 0)
     for k, n in enumerate(steps):
@@ -207,9 +271,16 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
                 "record": record, "inserted": inserted, "merged": merged, "added": added,
                 "initial_moves": initial_moves,
                 "first_terms": first_terms[0] if first_terms else None,
-                "first_t_end": first_terms[1] if first_terms else None})
+                "first_t_end": first_terms[1] if first_terms else None,
+                **({"edits": edits.to_dict()} if rollback else {})})
+        if k == start_stage and resume is not None:
+            go_on = resume
+        elif carry is not None:
+            go_on = {**carry, "step": 0}
+        else:
+            go_on = None
         result = optimise(plans, objective, stage, _Offset(observers, done, total),
-                          resume=resume if k == start_stage else None, checkpoint=hook)
+                          resume=go_on, checkpoint=hook)
         if first is None and initial is not None and initial[0] is not None:
             result.initial_terms, result.initial_t_end = initial  # as before the break
         first = first or result
@@ -218,10 +289,14 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         last = k == len(steps) - 1
         entry: dict[str, Any] = {"stage": k + 1, "steps": n, "moves": sum(p.m for p in plans),
                                  "inserted_before": inserted, "merged_before": merged}
-        if refine.mode == "auto" or not last:
-            mean, worst = _chamfer(strokes, result.plans)
+        if refine.mode == "auto" or not last or rollback:
+            mean, worst = chamfer_of(strokes, result.plans)
             entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
         record.append(entry)
+        if rollback:
+            result, rolled = _judge(edits, result, (mean, worst), size, entry)
+            if rolled:
+                added -= edits.pending["inserted"] if edits.pending else 0
         if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):
             best = (entry["chamfer_max_px"], result, k + 1)
         if refine.mode == "auto" and entry["chamfer_max_px"] <= refine.max_error:
@@ -234,10 +309,20 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         else:  # all rounds together grow it by the share at most
             above = refine.insert_above
             limit = budget(initial_moves, refine.insert_share) - added
-        plans, inserted, merged = edit(result.plans, strokes,
-                                       replace(refine, merge=refine.merge and
-                                               refine.mode != "auto"), above, limit)
+        carry, edits.pending = None, None
+        if rollback and edits.frozen:
+            plans, inserted, merged = result.plans, 0, 0
+        else:
+            allow_merge = refine.merge and refine.mode != "auto" and edits.merges_allowed
+            plans, inserted, merged = edit(result.plans, strokes,
+                                           replace(refine, merge=allow_merge), above, limit,
+                                           size)
         added += inserted
+        if rollback:
+            if inserted or merged:
+                edits.pending = {"inserted": inserted, "merged": merged}
+            else:  # nothing to edit: the stage goes on from where the kept one stopped
+                carry = result.state
         if refine.mode == "auto" and inserted == 0 and merged == 0:
             break  # nothing left to change: the goal is out of reach at this density
     assert result is not None and first is not None
@@ -248,4 +333,4 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         for entry in record:
             entry["kept"] = entry["stage"] == best[2]
     return StagedFit(result, total, first.initial_terms, first.initial_t_end, record, wall,
-                     resumed_from)
+                     resumed_from, path_moves)

@@ -1,9 +1,9 @@
-"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 3).
+"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 4).
 
 A job is one validated spec, plain JSON (job.json), so it can travel through the broker
 and reproduce a run::
 
-    {"version": 3, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
+    {"version": 4, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
      "device": "auto", "record_every": 10,
      "params": {"steps": 300, ..., "initialiser": {"name": "dce", "threshold": 1.0},
                 "renderer": {"name": "raster"}, "losses": [{"name": "mse"}]}}
@@ -16,7 +16,9 @@ job.json still reproduces their run. Version 2 differs from 3 only in the fit's 
 (3: the sparse, refined plan of issue 10 — DCE at the authors' canvas-relative relevance
 with initial turning angles, plan edits between stages, the drawing-wide smoothing cost,
 600 steps, λ = 45, w_σ = 10); :func:`upgrade_v2` writes version 2's defaults into a
-version-2 fit spec wherever it leaves a field out, so it runs as it did.
+version-2 fit spec wherever it leaves a field out, so it runs as it did. Version 3 differs
+from 4 in the fit's defaults too (4: the trace term, plan edits rolled back when their
+refit is worse, merges that keep salient corners, issue 19): :func:`upgrade_v3`.
 """
 
 from __future__ import annotations
@@ -30,7 +32,11 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 3
+SPEC_VERSION = 4
+#: the fit parameters whose version-3 defaults differ from version 4's (4: the trace term,
+#: rolled-back plan edits and merges that keep salient corners, issue 19)
+V3_FIT_DEFAULTS = {"w_trace": 0.0, "rollback": False, "keep_corners": False,
+                   "smooth_over": "drawing"}
 #: the fit parameters whose version-2 defaults differ from version 3's
 V2_FIT_DEFAULTS = {"steps": 300, "lambda_smooth": 20.0, "w_sigma": 50.0, "smooth_over": "path",
                    "targets": "default", "refine": 0}
@@ -78,6 +84,8 @@ class JobSpec:
             d = upgrade_v1(d, source)
         if d.get("version") == 2:
             d = upgrade_v2(d, source)
+        if d.get("version") == 3:
+            d = upgrade_v3(d, source)
         if d.get("version") != SPEC_VERSION:
             raise SpecError(f"{source}: spec version {d.get('version')!r} is not supported; "
                             f"this inkmotion reads versions 1 to {SPEC_VERSION}.")
@@ -117,7 +125,7 @@ def upgrade_v2(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
     :data:`V2_DCE_DEFAULTS`, unless it gives a relevance), so it reproduces its run.
     Other kinds are unchanged."""
     d = copy.deepcopy(d)
-    d["version"] = SPEC_VERSION
+    d["version"] = 3
     if d.get("kind", "fit") != "fit":
         return d
     params = d.get("params")
@@ -132,6 +140,19 @@ def upgrade_v2(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
             init.setdefault("threshold", V2_DCE_DEFAULTS["threshold"])
         init.setdefault("bend", V2_DCE_DEFAULTS["bend"])
         params["initialiser"] = init
+    return d
+
+
+def upgrade_v3(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
+    """A version-3 spec as version 4: a fit spec gets version 3's defaults
+    (:data:`V3_FIT_DEFAULTS`: no trace term, every plan edit kept, merges blind to corners)
+    wherever it leaves them out, so it reproduces its run. Other kinds are unchanged."""
+    d = copy.deepcopy(d)
+    d["version"] = SPEC_VERSION
+    params = d.get("params")
+    if d.get("kind", "fit") == "fit" and isinstance(params, dict):
+        for key, value in V3_FIT_DEFAULTS.items():
+            params.setdefault(key, value)
     return d
 
 

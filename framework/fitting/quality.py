@@ -1,0 +1,82 @@
+"""How good a fit is, measured against the input trace: the criterion that decides whether a
+plan edit is kept, and the threshold below which a finished fit is reported as poor.
+
+The figures are the symmetric Chamfer distance between the input polylines and the fitted
+trajectory (mean, px) and the Hausdorff distance (max, px), :func:`inkmotion.geometry.chamfer.
+chamfer`, both directions, so a loop the fit leaves out counts as much as a stroke it adds.
+The goals are given on a 350-px canvas (the authors' size) and scale with the canvas:
+
+- the fit's criterion q = mean / (0.6 px·s) + max / (8 px·s), s = size / 350: each goal
+  counts 1 when met exactly; lower is better. A plan edit is kept only when the refit from
+  it has a q no higher than the fit before the edit (:mod:`inkmotion.fitting.stages`).
+- a fit is *poor* when its max distance exceeds 8 px·s: some part of the input is drawn
+  that far off, or not at all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inkmotion.sigma_lognormal.plan import MotorPlan
+
+#: px on a canvas of this longer side; the goals scale with the canvas
+REFERENCE_SIZE = 350.0
+#: px at the reference size: the goals of a fit, Chamfer mean and max
+GOAL_MEAN_PX = 0.6
+GOAL_MAX_PX = 8.0
+
+
+def chamfer_of(strokes: list[np.ndarray], plans: list[MotorPlan]) -> tuple[float, float]:
+    """(mean, max) px between the input ``strokes`` and the fitted ``plans`` (on any device)."""
+    from inkmotion.geometry.chamfer import chamfer
+    from inkmotion.outputs.sampling import on_cpu, sample
+
+    return chamfer(strokes, [sample(on_cpu(p)).positions for p in plans])
+
+
+def criterion(mean: float, worst: float, size: float) -> float:
+    """q = mean / (0.6 px·s) + max / (8 px·s), s = size / 350 (module docstring)."""
+    s = float(size) / REFERENCE_SIZE
+    return mean / (GOAL_MEAN_PX * s) + worst / (GOAL_MAX_PX * s)
+
+
+def poor_above(size: float) -> float:
+    """The max Chamfer distance (px) above which a fit on a ``size``-px canvas is poor."""
+    return GOAL_MAX_PX * float(size) / REFERENCE_SIZE
+
+
+@dataclass(frozen=True)
+class Miss:
+    """Where a fit misses its input most: the input stroke (0-based, in the input's order),
+    the input point (x, y) there and its distance to the fitted motion (px)."""
+
+    stroke: int
+    point: tuple[float, float]
+    distance: float
+
+
+def worst_miss(strokes: list[np.ndarray], plans: list[MotorPlan]) -> Miss:
+    """The input point farthest from the fitted motion (the input → fit half of the Hausdorff
+    distance, where a missing loop shows), or the fitted sample farthest from the input
+    when that is farther (a stroke drawn where the input has none), named by the stroke
+    nearest to it."""
+    from scipy.spatial import cKDTree
+
+    from inkmotion.geometry.chamfer import densify
+    from inkmotion.outputs.sampling import on_cpu, sample
+
+    dense = [densify(s) for s in strokes]
+    stroke_of = np.concatenate([np.full(len(d), i) for i, d in enumerate(dense)])
+    inputs = np.vstack(dense)
+    fitted = np.vstack([densify(sample(on_cpu(p)).positions) for p in plans])
+    d_in, _ = cKDTree(fitted).query(inputs)
+    d_fit, near = cKDTree(inputs).query(fitted)
+    if d_in.max() >= d_fit.max():
+        k = int(np.argmax(d_in))
+        return Miss(int(stroke_of[k]), (float(inputs[k, 0]), float(inputs[k, 1])),
+                    float(d_in[k]))
+    k = int(np.argmax(d_fit))
+    return Miss(int(stroke_of[near[k]]), (float(fitted[k, 0]), float(fitted[k, 1])),
+                float(d_fit[k]))

@@ -1,0 +1,328 @@
+"""The trace term of a fit: how far the fitted motion runs from the input trace, both ways.
+
+A drawing input (a GML tag, an SVG, a word) gives the fit more than its picture: the pen's
+own polylines. The image loss only sees ink where the rendered stroke and the target
+overlap or nearly do (the multi-scale MSE's blur reaches a few px), so once the pen has
+taken another route between two targets — a loop cut across, a corner pulled 40 px off —
+nothing pulls it back. The trace term does, from any distance:
+
+    L_trace = mean_{q ∈ Q} ρ(d(q, C)) + mean_{c ∈ F} ρ(d(c, T))
+
+with Q the input points (every ``spacing`` px along each stroke), C the fitted trajectory
+as chords (each Hermite Bézier segment of the fitting grid split at t = ½), F the fitted
+samples (the segments' t = 0 and t = ½ points), T the input polyline's segments, d the
+point-to-segment distance in px and ρ(d) = √(d² + s²) − s the pseudo-Huber penalty
+(≈ d²/2s within ``scale`` s of the trace, where the image loss works, ≈ d beyond it, so a
+far miss pulls with a bounded force and cannot swamp the smoothing cost). The first mean
+is the recall (every part of the input is drawn), the second the precision (the pen stays
+on the input); together they are a smooth symmetric Chamfer distance.
+
+Which path may cover which stroke. A pen path drawn through one stroke should not take the
+ink of another stroke that crosses it. A stroke is *owned* by the paths whose initial
+trajectory runs along it (at least half of its points within ``own_within`` px); a
+stroke's points are matched to its owners' chords only, and a path's samples to its
+strokes' segments only. A stroke that no path owns, or a path that owns none (an
+initialiser that does not follow the strokes, e.g. one tour through all of them), is
+matched with everything. The masks are fixed for a fit stage, so a step has static shapes
+and reads nothing back from the device (DESIGN.md § Devices).
+
+Which pass of the pen. A path that crosses itself (a loop, the two f of "graffiti") passes
+some places twice; the nearest chord to an input point may then be the other pass, and a
+hook the fit cuts short would go unnoticed. Where a stroke and a path own only each other,
+the nearest-match search therefore also weighs how far apart the two points are along the
+stroke and the path (their shares of the arc length times the stroke's length): a pair
+more than max(20 px, 15 % of the stroke) apart counts as farther by the excess, so a point
+is matched to the pass of the pen that belongs to it. The distance itself (and its
+gradient) is the plain geometric one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from inkmotion.geometry.chamfer import densify
+from inkmotion.sigma_lognormal.batch import GridLayout
+
+#: px between the input points of the recall term
+RECALL_SPACING = 3.0
+#: px, s of the pseudo-Huber penalty ρ(d) = √(d² + s²) − s
+HUBER_SCALE = 1.0
+#: px: a stroke belongs to a path whose initial trajectory runs within this of it
+OWN_WITHIN = 2.0
+#: the band of the nearest-match search along a stroke and the path that follows it: pairs
+#: more than max(BAND_MIN_PX, BAND_SHARE × the stroke's length) apart along the two count
+#: as farther by the excess (module docstring)
+BAND_MIN_PX = 20.0
+BAND_SHARE = 0.15
+#: px², the start of a min over pairs (larger than any canvas's squared diagonal)
+FAR = 1e12
+
+
+def simplify(stroke: np.ndarray, tolerance: float = 0.25) -> np.ndarray:
+    """The vertices (k, 2) of ``stroke`` (n, ≥2) that stand more than ``tolerance`` px off
+    the chord of their neighbours, removed greedily from the flattest (Douglas–Peucker
+    from the ends, iterative): the precision term's segments, fewer and just as exact."""
+    p = np.asarray(stroke, dtype=np.float64)[:, :2]
+    if len(p) <= 2:
+        return p
+    keep = np.zeros(len(p), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(p) - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        chord = p[b] - p[a]
+        c = float(np.hypot(*chord))
+        rel = p[a + 1:b] - p[a]
+        if c <= 1e-12:
+            h = np.hypot(rel[:, 0], rel[:, 1])
+        else:
+            h = np.abs(chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / c
+        k = int(np.argmax(h))
+        if h[k] > tolerance:
+            keep[a + 1 + k] = True
+            stack += [(a, a + 1 + k), (a + 1 + k, b)]
+    return p[keep]
+
+
+def _arc(xy: np.ndarray) -> np.ndarray:
+    """Arc length (n,) px at each vertex of a polyline (n, 2), 0 at the first."""
+    return np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+
+
+def _point_segment_d2(q: torch.Tensor, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """Squared distances (n,) from points ``q`` (n, 2) to segments ``a``→``b`` (n, 2)."""
+    ab = b - a
+    aq = q - a
+    t = ((aq * ab).sum(-1) / (ab * ab).sum(-1).clamp(min=1e-12)).clamp(0.0, 1.0)  # (n,)
+    r = aq - t[:, None] * ab
+    return (r * r).sum(-1)
+
+
+def _pairs(rows_of: list[np.ndarray], cols_of: list[np.ndarray],
+           device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+    """Every (row, col) of the groups g: rows_of[g] × cols_of[g], as two index tensors."""
+    rows = [np.repeat(r, len(c)) for r, c in zip(rows_of, cols_of, strict=True)]
+    cols = [np.tile(c, len(r)) for r, c in zip(rows_of, cols_of, strict=True)]
+    return (torch.as_tensor(np.concatenate(rows), dtype=torch.long, device=device),
+            torch.as_tensor(np.concatenate(cols), dtype=torch.long, device=device))
+
+
+@dataclass(frozen=True)
+class TraceReference:
+    """The input trace on the device: recall points Q (K, 2) and precision segments T
+    (J, 2 → 2), each with the stroke it belongs to, and the strokes as polylines."""
+
+    points: torch.Tensor  # (K, 2)
+    point_stroke: torch.Tensor  # (K,) long
+    seg_a: torch.Tensor  # (J, 2)
+    seg_b: torch.Tensor  # (J, 2)
+    seg_stroke: torch.Tensor  # (J,) long
+    strokes: tuple[np.ndarray, ...]
+    point_arc: torch.Tensor  # (K,) share of its stroke's length before the point, 0..1
+    seg_arc: torch.Tensor  # (J,) the same at the segment's midpoint
+    lengths: torch.Tensor  # (n_strokes,) px
+
+    @classmethod
+    def of(cls, strokes: list[np.ndarray], *, dtype: torch.dtype, device: torch.device | str,
+           spacing: float = RECALL_SPACING) -> TraceReference:
+        """From the input ``strokes`` (canvas px; strokes of fewer than 2 points ignored)."""
+        kept = tuple(np.asarray(s, dtype=np.float64)[:, :2] for s in strokes if len(s) >= 2)
+        assert kept, "a trace reference needs a stroke of two points"
+        pts, pst, sa, sb, sst, parc, sarc, lengths = [], [], [], [], [], [], [], []
+        for i, s in enumerate(kept):
+            d = densify(s, spacing)
+            pts.append(d)
+            pst.append(np.full(len(d), i))
+            v = simplify(s)
+            sa.append(v[:-1])
+            sb.append(v[1:])
+            sst.append(np.full(len(v) - 1, i))
+            arc = _arc(d)
+            length = max(float(arc[-1]), 1e-9)
+            parc.append(arc / length)
+            varc = _arc(v)
+            sarc.append(0.5 * (varc[:-1] + varc[1:]) / max(float(varc[-1]), 1e-9))
+            lengths.append([length])
+
+        def put(x: list[np.ndarray], kind: torch.dtype = dtype) -> torch.Tensor:
+            return torch.as_tensor(np.concatenate(x), dtype=kind, device=device)
+
+        return cls(put(pts), put(pst, torch.long), put(sa), put(sb), put(sst, torch.long),
+                   kept, put(parc), put(sarc), put(lengths))
+
+    def ownership(self, initial_positions: list[np.ndarray],
+                  own_within: float = OWN_WITHIN) -> torch.Tensor:
+        """(n_strokes, P) bool: which paths may cover which stroke (module docstring), from
+        each path's initial trajectory samples (n_p, ≥2)."""
+        from scipy.spatial import cKDTree
+
+        n, paths = len(self.strokes), len(initial_positions)
+        own = np.zeros((n, paths), dtype=bool)
+        for p, xy in enumerate(initial_positions):
+            tree = cKDTree(densify(np.asarray(xy)[:, :2], 0.5))
+            for s, stroke in enumerate(self.strokes):
+                d, _ = tree.query(densify(stroke, 1.0))
+                own[s, p] = np.mean(d <= own_within) >= 0.5
+        own[~own.any(axis=1), :] = True  # a stroke nobody follows: anyone may cover it
+        own[:, ~own.any(axis=0)] = True  # a path that follows no stroke: it may cover any
+        return torch.as_tensor(own, device=self.points.device)
+
+
+def _nearest(d2: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor,
+             n_rows: int) -> torch.Tensor:
+    """For each row, the col of its pair with the smallest ``d2`` (n_rows,) long; every row
+    has a pair. On the device, no host read."""
+    best = d2.new_full((n_rows,), FAR).scatter_reduce(0, rows, d2, "amin",
+                                                       include_self=False)
+    hit = torch.where(d2 <= best[rows], cols, -1)
+    return torch.full((n_rows,), -1, dtype=torch.long, device=d2.device).scatter_reduce(
+        0, rows, hit, "amax", include_self=True)
+
+
+class TraceLoss:
+    """L_trace of a fit stage (module docstring): call with the fitting grid's Bézier
+    segments (S, 4, D) and their layout; returns a 0-d tensor (px).
+
+    The nearest chord of every recall point and the nearest input segment of every fitted
+    sample are searched, without gradient, over the pairs the ownership allows (index
+    pairs built once per layout) every ``refresh`` calls; each call then measures the
+    distance to that one and its ``reach`` neighbours on either side along the same path
+    or stroke. The motion moves by a fraction of a px per step, so the minimum is found
+    among them, at a cost linear in the input's length and the plan's size."""
+
+    def __init__(self, reference: TraceReference, owners: torch.Tensor,
+                 scale: float = HUBER_SCALE, refresh: int = 10, reach: int = 2) -> None:
+        self.ref = reference
+        self.owners = owners.cpu().numpy()  # (n_strokes, P) bool
+        self.scale = scale
+        self.refresh, self.reach = refresh, reach
+        self._layout: GridLayout | None = None
+        self._pairs: tuple[torch.Tensor, ...] = ()
+        self._ranges: tuple[torch.Tensor, ...] = ()
+        self._near: tuple[torch.Tensor, torch.Tensor] | None = None
+        offsets = torch.arange(-reach, reach + 1, device=reference.points.device)
+        self._offsets = offsets  # (2·reach + 1,)
+        # each input segment's stroke range [first, last] (J,), for the neighbours
+        stroke = reference.seg_stroke.cpu().numpy()
+        idx = np.arange(len(stroke))
+        first = np.array([idx[stroke == s].min() for s in stroke])
+        last = np.array([idx[stroke == s].max() for s in stroke])
+        self._seg_range = (torch.as_tensor(first, device=offsets.device),
+                           torch.as_tensor(last, device=offsets.device))
+
+    def state(self) -> dict[str, torch.Tensor]:
+        """The current matches (for a checkpoint); empty before the first step."""
+        if self._near is None:
+            return {}
+        return {"chord": self._near[0].clone(), "segment": self._near[1].clone()}
+
+    def load_state(self, state: dict[str, torch.Tensor]) -> None:
+        """Continue with :meth:`state`'s matches (after the layout's first call)."""
+        if state:
+            device = self.ref.points.device
+            self._near = (state["chord"].to(device), state["segment"].to(device))
+
+    def _build(self, layout: GridLayout) -> None:
+        """The layout's index pairs (recall point, chord), (sample, input segment) and each
+        chord's path range; the next call searches the nearest ones."""
+        device = self.ref.points.device
+        half_path = layout.segment_path.repeat_interleave(2).cpu().numpy()  # (2S,)
+        point_stroke = self.ref.point_stroke.cpu().numpy()
+        seg_stroke = self.ref.seg_stroke.cpu().numpy()
+        strokes, paths = range(self.owners.shape[0]), range(self.owners.shape[1])
+        recall = _pairs([np.flatnonzero(point_stroke == s) for s in strokes],
+                        [np.flatnonzero(self.owners[s][half_path]) for s in strokes], device)
+        precision = _pairs([np.flatnonzero(half_path == p) for p in paths],
+                           [np.flatnonzero(self.owners[seg_stroke, p]) for p in paths], device)
+        idx = np.arange(len(half_path))
+        first = np.array([idx[half_path == p].min() for p in half_path])
+        last = np.array([idx[half_path == p].max() for p in half_path])
+        self._pairs = recall + precision
+        # a stroke and a path that own only each other: their pairs are banded
+        one = (self.owners.sum(1) == 1)[:, None] & (self.owners.sum(0) == 1)[None, :] \
+            & self.owners  # (n_strokes, P)
+        rk, rc, ps, pj = (t.cpu().numpy() for t in self._pairs)
+        self._recall_banded = torch.as_tensor(one[point_stroke[rk], half_path[rc]],
+                                              device=device)
+        self._precision_banded = torch.as_tensor(one[seg_stroke[pj], half_path[ps]],
+                                                 device=device)
+        self._ranges = (torch.as_tensor(first, device=device),
+                        torch.as_tensor(last, device=device))
+        self._layout, self._near = layout, None
+
+    def _search(self, starts: torch.Tensor, ends: torch.Tensor) -> None:
+        """The nearest chord of every recall point and the nearest input segment of every
+        fitted sample (no gradient). Where a stroke and a path own only each other, a pair
+        far apart along the two (by more than the band, module docstring) counts as
+        farther: a pass of the pen over the same spot at another time is not the match."""
+        rk, rc, ps, pj = self._pairs
+        ref = self.ref
+        with torch.no_grad():
+            first, last = self._ranges
+            length = (ends - starts).norm(dim=1)  # (2S,) chord lengths
+            after = length.cumsum(0)
+            before = after - length
+            done = before - before[first]  # arc of the path before each chord
+            share = (done + 0.5 * length) / (after[last] - before[first]).clamp(min=1e-9)
+            stroke_len = ref.lengths[ref.point_stroke]  # (K,)
+            d2 = _point_segment_d2(ref.points[rk], starts[rc], ends[rc]) + self._band(
+                ref.point_arc[rk] - share[rc], stroke_len[rk], self._recall_banded)
+            chord = _nearest(d2, rk, rc, ref.points.shape[0])
+            d2 = _point_segment_d2(starts[ps], ref.seg_a[pj], ref.seg_b[pj]) + self._band(
+                share[ps] - ref.seg_arc[pj], ref.lengths[ref.seg_stroke[pj]],
+                self._precision_banded)
+            segment = _nearest(d2, ps, pj, starts.shape[0])
+        self._near = (chord, segment)
+
+    @staticmethod
+    def _band(offset: torch.Tensor, length: torch.Tensor, banded: torch.Tensor) -> torch.Tensor:
+        """px²: the squared excess of |offset|·length (px along the stroke) over the band
+        max(BAND_MIN_PX, BAND_SHARE·length), where ``banded``; 0 elsewhere."""
+        band = torch.clamp(BAND_SHARE * length, min=BAND_MIN_PX)
+        excess = torch.relu(offset.abs() * length - band)
+        return torch.where(banded, excess * excess, 0.0)
+
+    def _around(self, nearest: torch.Tensor, first: torch.Tensor,
+                last: torch.Tensor) -> torch.Tensor:
+        """(n, 2·reach + 1): ``nearest`` and its neighbours, clamped to its own range."""
+        lo, hi = first[nearest][:, None], last[nearest][:, None]
+        return torch.minimum(torch.maximum(nearest[:, None] + self._offsets, lo), hi)
+
+    def __call__(self, segments: torch.Tensor, layout: GridLayout,
+                 step: int | None = None) -> torch.Tensor:
+        """L_trace of ``segments``; ``step`` (1-based, an optimiser step) searches the
+        matches again on steps 1, 1 + refresh, ... and keeps them for the steps between;
+        without a step (an evaluation outside the loop) the matches are searched for this
+        call alone. The matches are the only state: :meth:`state` / :meth:`load_state`
+        carry them through a checkpoint, so a resumed fit repeats the same arithmetic."""
+        if layout is not self._layout:
+            self._build(layout)
+        p0, p1, p2, p3 = (segments[:, k, :2] for k in range(4))  # (S, 2) each
+        half = 0.125 * (p0 + 3.0 * p1 + 3.0 * p2 + p3)  # B(½)
+        starts = torch.stack((p0, half), 1).reshape(-1, 2)  # (2S, 2) samples F
+        ends = torch.stack((half, p3), 1).reshape(-1, 2)  # chords C: start → end
+        kept = self._near
+        if step is None or kept is None or (step - 1) % self.refresh == 0:
+            self._search(starts, ends)
+        if step is None:
+            kept, self._near = self._near, kept
+        else:
+            kept = self._near
+        assert kept is not None
+        chord, segment = kept
+        ref, w = self.ref, self._offsets.numel()
+        c = self._around(chord, *self._ranges)  # (K, w)
+        q = ref.points[:, None, :].expand(-1, w, -1).reshape(-1, 2)
+        recall = _point_segment_d2(q, starts[c.reshape(-1)], ends[c.reshape(-1)])
+        j = self._around(segment, *self._seg_range).reshape(-1)  # (2S·w,)
+        f = starts[:, None, :].expand(-1, w, -1).reshape(-1, 2)
+        precision = _point_segment_d2(f, ref.seg_a[j], ref.seg_b[j])
+        s2 = self.scale * self.scale
+        recall = (recall.view(-1, w).amin(1) + s2).sqrt()  # (K,) ρ + s
+        precision = (precision.view(-1, w).amin(1) + s2).sqrt()  # (2S,) ρ + s
+        return recall.mean() + precision.mean() - 2.0 * self.scale
