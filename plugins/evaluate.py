@@ -34,7 +34,8 @@ class EvaluateParams:
                          flag="--vmax")
     a_max: float = param(2.5, "Pen acceleration limit, m/s².", minimum=1e-4, maximum=13.0,
                          flag="--amax")
-    path: int = param(-1, "Which path of the plan (0-based; -1: the longest).", minimum=-1)
+    path: int = param(-1, "Which path of the plan (0-based); -1: every path, per path and "
+                      "over the drawing (the plots show the longest).", minimum=-1)
     rate: float = param(1000.0, "Sampling rate of the timings, Hz.", minimum=50,
                         maximum=10_000)
     setup: str = param("", "Robot setup TOML whose paper maps px to metres (empty: default).")
@@ -58,7 +59,7 @@ class EvaluateKind:
     )
 
     def steps(self, params: EvaluateParams) -> int:
-        return 3  # one per timing
+        return 4  # one per timing (of each path; the job says how many paths it times)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.evaluation.evaluate import run_evaluate

@@ -166,6 +166,7 @@ def _fit(job: Job) -> dict[str, Any]:
     options = dict(width=p.width, dtype=dtype, device=job.device, **job.options(p.initialiser))
     plans = initialise(JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
                        **options)
+    asked = _targets_note(p, plans)
     with torch.no_grad():
         target_segments = traces_to_segments(traces, dtype, job.device)
         widths = torch.full((len(target_segments),), p.width, dtype=dtype, device=job.device)
@@ -182,7 +183,23 @@ def _fit(job: Job) -> dict[str, Any]:
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
     staged = fit_in_stages(plans, objective, settings, strokes, p.refine_settings(),
                            job.observers, checkpoints=job.checkpoints)
-    return _write(job, traces, staged, canvas, target)
+    report = _write(job, traces, staged, canvas, target)
+    if asked:
+        report["warnings"] = [asked, *report.get("warnings", [])]
+    return report
+
+
+def _targets_note(p: FitParams, plans: list) -> str | None:
+    """A warning when ``--targets N`` could not be met within 25 %: how many sub-movements
+    the initialiser placed instead and why."""
+    n = target_count(p.targets)
+    made = sum(plan.m for plan in plans)
+    if n is None or abs(made - n) <= 0.25 * n:
+        return None
+    why = (" (it places targets on input vertices only, and this input has no more)"
+           if made < n and p.initialiser.name == "dce" else "")
+    return (f"--targets {n}: the {p.initialiser.name} initialiser made {made} sub-movements "
+            f"on this input{why}; the fit uses those.")
 
 
 def _trace_term(traces: Any, plans: list, dtype: Any, device: Any) -> Any:
@@ -256,6 +273,8 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
         "stages": staged.stages,
         "metrics": metrics,
     }
+    report.update(quality_verdict(traces, plans, size, job.params))
+    metrics["quality"] = report["quality"]
     if job.checkpoints is not None:  # the job record's metrics carry it too
         report["resumed_from_step"] = metrics["resumed_from_step"] = staged.resumed_from_step
         report["checkpoints"] = {"written": job.checkpoints.saved,
@@ -282,6 +301,33 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
 
         report["spray_drips"] = write_spray_png(folder / "spray.png", drawing, job.spec.seed)
     return report
+
+
+def quality_verdict(traces: Any, plans: list, size: tuple[float, float],
+                    p: FitParams) -> dict[str, Any]:
+    """``quality`` ("good" or "poor": the max Chamfer distance above 8 px at 350 px, scaled
+    with the canvas, :mod:`inkmotion.fitting.quality`) and, when poor, ``quality_figures``
+    and one warning naming where the fit misses most and what to try."""
+    from inkmotion.fitting.quality import poor_above, worst_miss
+
+    longer = max(size)
+    limit = poor_above(longer)
+    miss = worst_miss([s[:, :2] for s in traces.strokes], plans)
+    if miss.distance <= limit:
+        return {"quality": "good"}
+    tries = []
+    if p.targets != "auto":
+        tries.append("--targets auto")
+    tries.append(f"--steps {2 * p.steps}")
+    if p.renderer.name != "raster":
+        tries.append("--renderer raster")
+    x, y = miss.point
+    warning = (f"the fit misses stroke {miss.stroke + 1} of {len(traces.strokes)} by "
+               f"{miss.distance:.1f} px near ({x:.0f}, {y:.0f}) px (more than "
+               f"{limit:.1f} px on this {longer:.0f}-px canvas); try {' or '.join(tries)}.")
+    return {"quality": "poor", "warnings": [warning],
+            "quality_figures": {"worst_stroke": miss.stroke, "worst_point_px": [x, y],
+                                "worst_distance_px": miss.distance, "poor_above_px": limit}}
 
 
 def t_end_ratio_multi(staged: Any) -> float:

@@ -29,13 +29,28 @@ def test_evaluate_writes_the_table_and_plots(tmp_path: Path) -> None:
         p.name for p in out.iterdir()}
     doc = json.loads((out / "evaluation.json").read_text())
     methods = doc["methods"]
-    assert set(methods) == {"sigma-lognormal", "minimum-jerk", "time-optimal"}
+    assert set(methods) == {"sigma-lognormal", "minimum-jerk", "minimum-jerk-sigma-times",
+                            "time-optimal"}
     assert all(m["ldj"] < 0 and m["msj"] > 0 for m in methods.values())
     assert methods["time-optimal"]["duration"] < methods["sigma-lognormal"]["duration"]
     assert doc["ratios"]["time-optimal"]["duration"] < 1
+    # the ΣΛ passage times keep the ΣΛ timing law: the same duration under the same limits
+    assert doc["ratios"]["minimum-jerk-sigma-times"]["duration"] == pytest.approx(1.0,
+                                                                                   abs=0.02)
     assert "time-optimal/ΣΛ" in res.stderr  # the table on the terminal
+    # every path, and the drawing's total: durations add up
+    assert doc["path"] == "all" and len(doc["paths"]) == len(
+        json.loads((fit / "plan.json").read_text())["paths"])
+    if len(doc["paths"]) > 1:
+        total = sum(p["methods"]["sigma-lognormal"]["duration"] for p in doc["paths"])
+        assert methods["sigma-lognormal"]["duration"] == pytest.approx(total)
     csv = (out / "evaluation.csv").read_text().splitlines()
-    assert len(csv) == 6 and "nan" not in "".join(csv)
+    rows = 1 + 7 * (1 + (len(doc["paths"]) if len(doc["paths"]) > 1 else 0))
+    assert len(csv) == rows and "nan" not in "".join(csv)
+    one = tmp_path / "one"
+    res = inkmotion("evaluate", str(fit / "plan.json"), "--path", "0", "--out", str(one))
+    assert res.returncode == 0, res.stderr
+    assert json.loads((one / "evaluation.json").read_text())["path"] == 0
 
 
 def test_msj_at_equal_duration_removes_the_time_scaling() -> None:

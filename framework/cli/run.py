@@ -45,6 +45,8 @@ def execute(spec: Any, out_dir: Path, record: bool) -> None:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
         raise typer.Exit(130) from None
     typer.echo(summary(report))
+    for warning in report.get("warnings") or []:
+        typer.secho(f"warning: {warning}", fg="yellow", err=True)
     files = sorted(p.name for p in Path(out_dir).iterdir())
     typer.echo(f"results in {out_dir} ({', '.join(files)})")
 
@@ -52,7 +54,9 @@ def execute(spec: Any, out_dir: Path, record: bool) -> None:
 def summary(report: dict) -> str:
     """One line: wall time, device and the kind's metrics."""
     shown = [f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-             for k, v in (report.get("metrics") or {}).items()]
+             for k, v in (report.get("metrics") or {}).items() if k != "quality"]
+    if report.get("quality") == "poor":
+        shown.append("quality POOR")
     return (f"done in {report.get('wall_s', 0.0):.1f} s on {report.get('device', '?')}: "
             + ", ".join(shown))
 

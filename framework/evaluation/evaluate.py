@@ -27,13 +27,18 @@ from inkmotion.events import StepState
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
 
-#: the methods, in the table's order
-METHODS = ("sigma-lognormal", "minimum-jerk", "time-optimal")
+#: the methods, in the table's order: ΣΛ, path-constrained minimum jerk with optimised
+#: passage times through the via points, the same with the ΣΛ trajectory's own passage
+#: times (the variant the paper most likely used), time-optimal
+METHODS = ("sigma-lognormal", "minimum-jerk", "minimum-jerk-sigma-times", "time-optimal")
 #: per metric: the paper's finding for each alternative, as "ratio > 1" (ΣΛ better) or not
 PAPER_DIRECTION = {
     ("minimum-jerk", "duration"): None,  # not stated by the paper
     ("minimum-jerk", "msj"): False,  # minimum jerk smoother on MSJ
     ("minimum-jerk", "ldj"): True,  # ΣΛ smoother on LDJ
+    ("minimum-jerk-sigma-times", "duration"): None,
+    ("minimum-jerk-sigma-times", "msj"): False,
+    ("minimum-jerk-sigma-times", "ldj"): True,
     ("time-optimal", "duration"): False,  # TOTG faster
     ("time-optimal", "msj"): True,  # ΣΛ smoother on both measures
     ("time-optimal", "ldj"): True,
@@ -52,6 +57,20 @@ def choose_path(drawing: Any, index: int) -> int:
     lengths = [float(np.linalg.norm(np.diff(sample(p).positions[:, :2], axis=0),
                                     axis=1).sum()) for p in drawing.plans]
     return int(np.argmax(lengths))
+
+
+def total_figures(figures: list[dict[str, float]], integrals: list[float],
+                  peaks: list[float]) -> dict[str, float]:
+    """One method's figures over several paths, the drawing's motion seen as one with the
+    pen lifts left out: duration ΣT_p, MSJ = Σ∫|j|² / ΣT, LDJ = −ln(ΣT³/v_peak²·Σ∫|j|²)
+    with v_peak the highest peak speed (the definitions of :mod:`inkmotion.evaluation.
+    metrics` over the concatenated motion), peak speed the highest, speed peaks the sum."""
+    T = sum(f["duration"] for f in figures)
+    jerk = sum(integrals)
+    v_peak = max(peaks)
+    return {"duration": T, "inverse_duration": 1.0 / T, "peak_speed": v_peak,
+            "speed_peaks": float(sum(f["speed_peaks"] for f in figures)),
+            "msj": jerk / T, "ldj": float(-np.log(T**3 / v_peak**2 * jerk))}
 
 
 @dataclass(frozen=True)
@@ -85,12 +104,14 @@ def compare(plan: Any, v_max: float, a_max: float, scale: float, rate: float = 1
     v_px, a_px = v_max / scale, a_max / scale
     sigma = sigma_lognormal_timing(plan, v_px, a_px, rate)
     timings = [sigma]
-    for make in (minimum_jerk_timing, time_optimal_timing):
+    for make in (minimum_jerk_timing,
+                 lambda x, v, a, r: minimum_jerk_timing(x, v, a, r, times=sigma.t),
+                 time_optimal_timing):
         if progress is not None:
             progress(len(timings))
         timings.append(make(sigma.position, v_px, a_px, rate))
     if progress is not None:
-        progress(3)
+        progress(len(METHODS))
     timed = dict(zip(METHODS, timings, strict=True))
     table = {name: method_figures(path, scale, rate) for name, path in timed.items()}
     ratios = {name: ratio_row(table[name], table[METHODS[0]]) for name in METHODS[1:]}
@@ -109,36 +130,66 @@ def ratio_row(method: dict[str, float], sigma: dict[str, float]) -> dict[str, fl
 
 
 def run_evaluate(job: Job) -> dict[str, Any]:
-    """Time, measure, compare and plot one path of the job's plan."""
+    """Time, measure, compare and plot the job's plan: every path (``--path -1``: the
+    figures per path and over the whole drawing, :func:`total_figures`) or one path."""
     from inkmotion.evaluation import metrics as M
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
     drawing = Drawing.load(job.spec.inputs["plan"])
     scale = paper_scale(drawing.canvas, p.setup)
-    index = choose_path(drawing, p.path)
-    plan = drawing.plans[index]
+    indices = list(range(len(drawing.plans))) if p.path < 0 else [choose_path(drawing, p.path)]
+    shown = choose_path(drawing, p.path)  # the longest, or the one asked for: the plots
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
-
-    c = compare(plan, p.v_max, p.a_max, scale, p.rate,
-                progress=lambda k: job.observers.on_step(StepState(k, 3, {}, 0.0)))
-    sigma = c.timed[METHODS[0]]
+    n = len(METHODS)
+    per_path: dict[int, Comparison] = {}
+    for j, index in enumerate(indices):
+        per_path[index] = compare(
+            drawing.plans[index], p.v_max, p.a_max, scale, p.rate,
+            progress=lambda k, j=j: job.observers.on_step(
+                StepState(j * n + k, n * len(indices), {}, 0.0)))
+    table = _over_paths(per_path)
+    ratios = {name: ratio_row(table[name], table[METHODS[0]]) for name in METHODS[1:]}
+    holds = {f"{m}/{k}": (None if want is None else bool((ratios[m][k] > 1) == want))
+             for (m, k), want in PAPER_DIRECTION.items()}
+    sigma = per_path[shown].timed[METHODS[0]]
     minima = M.speed_minima_at_curvature_maxima(sigma.position * scale, 1.0 / p.rate)
-    doc = {"path": index, "moves": plan.m, "v_max": p.v_max, "a_max": p.a_max,
-           "m_per_px": scale, "methods": c.table, "ratios": c.ratios,
-           "paper_direction_holds": c.holds, "speed_minima_at_curvature_maxima": minima,
-           "method_notes": {"time-optimal": "TOPP-RA (toppra), standing in for TOTG"}}
+    doc = {"path": "all" if p.path < 0 else shown, "moves": sum(drawing.plans[i].m
+                                                                for i in indices),
+           "v_max": p.v_max, "a_max": p.a_max, "m_per_px": scale, "methods": table,
+           "ratios": ratios, "paper_direction_holds": holds,
+           "paths": [{"path": i, "moves": drawing.plans[i].m, "methods": c.table,
+                      "ratios": c.ratios, "paper_direction_holds": c.holds}
+                     for i, c in per_path.items()],
+           "plotted_path": shown, "speed_minima_at_curvature_maxima": minima,
+           "method_notes": {"time-optimal": "TOPP-RA (toppra), standing in for TOTG",
+                            "minimum-jerk": "passage times through the via points optimised",
+                            "minimum-jerk-sigma-times": "the ΣΛ trajectory's own passage "
+                            "times through the same via points"}}
     if p.recording:
         doc["human"] = human_figures(p.recording, drawing, job.folder)
     (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
-    write_csv(job.folder / "evaluation.csv", c.table, c.ratios)
+    write_csv(job.folder / "evaluation.csv", table, ratios,
+              {i: c for i, c in per_path.items()} if len(per_path) > 1 else None)
     from inkmotion.evaluation.plots import plot_minima, plot_speeds
 
-    plot_speeds(job.folder / "speeds.png", c.timed, scale)
+    plot_speeds(job.folder / "speeds.png", per_path[shown].timed, scale)
     plot_minima(job.folder / "minima.png", sigma.position, 1.0 / p.rate, drawing.canvas)
-    print_table(c.table, c.ratios)
-    metrics = {f"{m}_{k}_ratio": v for m, r in c.ratios.items() for k, v in r.items()}
+    print_table(table, ratios, f"evaluation, {len(indices)} path(s)")
+    metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
     return {**doc, "metrics": metrics}
+
+
+def _over_paths(per_path: dict[int, Comparison]) -> dict[str, dict[str, float]]:
+    """Each method's figures over the paths (:func:`total_figures`); one path's as they are."""
+    if len(per_path) == 1:
+        return next(iter(per_path.values())).table
+    out = {}
+    for name in METHODS:
+        figures = [c.table[name] for c in per_path.values()]
+        out[name] = total_figures(figures, [f["msj"] * f["duration"] for f in figures],
+                                  [f["peak_speed"] for f in figures])
+    return out
 
 
 def method_figures(path: Any, scale: float, rate: float) -> dict[str, float]:
@@ -158,30 +209,38 @@ def human_figures(recording: str, drawing: Any, folder: Path) -> dict[str, Any]:
     return human_agreement_from_files(recording, drawing, folder / "human_speeds.png")
 
 
-def write_csv(path: Path, table: dict, ratios: dict) -> None:
+def write_csv(path: Path, table: dict, ratios: dict,
+              per_path: dict[int, Comparison] | None = None) -> None:
     """evaluation.csv: one row per method (duration, MSJ, LDJ, ..., MSJ·T⁶ in the
-    msj_equal_duration column) and the ratio rows."""
+    msj_equal_duration column) and the ratio rows, over the drawing; with ``per_path``
+    the same rows of each path after them, named ``path N: ...``."""
     keys = ["duration", "inverse_duration", "peak_speed", "speed_peaks", "msj", "ldj",
             "msj_equal_duration"]
     lines = ["row," + ",".join(keys)]
-    for name, figures in table.items():
-        row = {**figures, "msj_equal_duration": figures["msj"] * figures["duration"] ** 6}
-        lines.append(name + "," + ",".join(f"{row[k]:.6g}" for k in keys))
-    for name, r in ratios.items():
-        row = {"duration": r["duration"], "inverse_duration": 1.0 / r["duration"],
-               "msj": r["msj"], "ldj": r["ldj"], "msj_equal_duration": r["msj_equal_duration"]}
-        lines.append(f"{name}/sigma-lognormal," + ",".join(
-            f"{row[k]:.6g}" if k in row else "" for k in keys))
+
+    def rows(prefix: str, table: dict, ratios: dict) -> None:
+        for name, figures in table.items():
+            row = {**figures, "msj_equal_duration": figures["msj"] * figures["duration"] ** 6}
+            lines.append(prefix + name + "," + ",".join(f"{row[k]:.6g}" for k in keys))
+        for name, r in ratios.items():
+            row = {"duration": r["duration"], "inverse_duration": 1.0 / r["duration"],
+                   "msj": r["msj"], "ldj": r["ldj"],
+                   "msj_equal_duration": r["msj_equal_duration"]}
+            lines.append(f"{prefix}{name}/sigma-lognormal," + ",".join(
+                f"{row[k]:.6g}" if k in row else "" for k in keys))
+
+    rows("", table, ratios)
+    for index, c in (per_path or {}).items():
+        rows(f"path {index}: ", c.table, c.ratios)
     path.write_text("\n".join(lines) + "\n")
 
 
-def print_table(table: dict, ratios: dict) -> None:
+def print_table(table: dict, ratios: dict, title: str = "evaluation") -> None:
     """The table on the terminal (rich)."""
     from rich.console import Console
     from rich.table import Table
 
-    t = Table("", "duration s", "1/duration", "MSJ m²/s⁶", "LDJ", "MSJ·T⁶",
-              title="evaluation")
+    t = Table("", "duration s", "1/duration", "MSJ m²/s⁶", "LDJ", "MSJ·T⁶", title=title)
     for name, f in table.items():
         t.add_row(name, f"{f['duration']:.3f}", f"{f['inverse_duration']:.4f}",
                   f"{f['msj']:.4g}", f"{f['ldj']:.3f}", f"{f['msj'] * f['duration'] ** 6:.4g}")

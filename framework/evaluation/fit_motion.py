@@ -76,7 +76,8 @@ def evaluation_ratios(drawing: Any) -> dict[str, float]:
 
     plan = drawing.plans[choose_path(drawing, -1)]
     c = compare(plan, V_MAX, A_MAX, paper_scale(drawing.canvas), RATE)
-    short = {"minimum-jerk": "minjerk", "time-optimal": "totg"}
+    short = {"minimum-jerk": "minjerk", "minimum-jerk-sigma-times": "minjerk_sigma",
+             "time-optimal": "totg"}
     return {f"{short[m]}_{k}": v for m, r in c.ratios.items() for k, v in r.items()}
 
 

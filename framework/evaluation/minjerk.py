@@ -48,6 +48,7 @@ from inkmotion.evaluation.timings import (
     control_samples,
     peaks,
     via_points,
+    via_points_and_times,
 )
 from inkmotion.robot.timing import time_scale
 
@@ -237,15 +238,41 @@ def evaluate_spline(h: np.ndarray, values: np.ndarray, t: np.ndarray) -> list[np
     return out
 
 
+def given_passage_times(path: np.ndarray, times: np.ndarray, spacing: float,
+                        max_turn: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Via points (M, 2) of ``path`` and the minimum-jerk spline through them with the
+    passage times the path's own timing gives (``times`` (N,) of its samples), not
+    re-optimised: durations h ∝ the differences of those times (Σh = 1), the knot values
+    the inner problem's optimum for them. The variant of the paper's comparison that
+    keeps the ΣΛ timing law and only smooths between the via points."""
+    points, at = via_points_and_times(path, times, spacing, max_turn)
+    assert at is not None
+    h = np.maximum(np.diff(at), 1e-9 * max(float(at[-1] - at[0]), 1e-12))
+    h = h / h.sum()
+    chord = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    length = float(chord.sum()) or 1.0
+    cost, values = _Spline((points - points[0]) / length).solve(h)
+    values = values * length
+    values[0::3] += points[0]
+    return points, h, values, {"jerk_cost": cost * length**2, "iterations": [0],
+                               "via_points": len(points)}
+
+
 def minimum_jerk_timing(path: np.ndarray, v_max: float, a_max: float, rate: float = 1000.0,
-                        *, spacing: float = SPACING, max_turn: float = MAX_TURN
-                        ) -> TimedPath:
+                        *, spacing: float = SPACING, max_turn: float = MAX_TURN,
+                        times: np.ndarray | None = None) -> TimedPath:
     """The path-constrained minimum-jerk timing of the polyline ``path`` (N, 2+) through
     its :func:`via_points`, uniformly time-scaled so |v| ≤ v_max and |a| ≤ a_max (peaks
     measured on ``PEAK_SAMPLES`` per piece, at ``SAFETY``, then checked on the control
     samples) and sampled at ``rate``; position, velocity, acceleration and jerk are the
-    spline's own (analytic)."""
-    points, h, values, info = coarse_to_fine(path, spacing, max_turn)
+    spline's own (analytic).
+
+    The passage times are optimised (the exact path-constrained minimum jerk), or, given
+    the path's sample ``times`` (N,), taken from them (:func:`given_passage_times`)."""
+    if times is None:
+        points, h, values, info = coarse_to_fine(path, spacing, max_turn)
+    else:
+        points, h, values, info = given_passage_times(path, times, spacing, max_turn)
     tau = (np.arange(PEAK_SAMPLES) + 0.5) / PEAK_SAMPLES
     fine = (np.concatenate(([0.0], np.cumsum(h)))[:-1, None] + h[:, None] * tau).ravel()
     _, v, a, _ = evaluate_spline(h, values, fine)
@@ -264,4 +291,5 @@ def minimum_jerk_timing(path: np.ndarray, v_max: float, a_max: float, rate: floa
     else:
         raise AssertionError(f"minimum-jerk time scale {k} does not converge")  # pragma: no cover
     info.update(time_scale=k_robot, limiting=limiting)
-    return TimedPath(t, x, v, a, j, "minimum-jerk", info)
+    name = "minimum-jerk" if times is None else "minimum-jerk-sigma-times"
+    return TimedPath(t, x, v, a, j, name, info)

@@ -79,6 +79,27 @@ def peaks(velocity: np.ndarray, acceleration: np.ndarray) -> tuple[float, float]
             float(np.linalg.norm(acceleration, axis=1).max(initial=0.0)))
 
 
+def _via_measure(path: np.ndarray, spacing: float, max_turn: float,
+                 min_spacing: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The samples of ``path`` kept (a mask (N,)), them (K, 2) and the measure (K,) that
+    :func:`via_points` spaces uniformly."""
+    min_spacing = spacing / 16.0 if min_spacing is None else min_spacing
+    path = np.asarray(path, dtype=float)[:, :2]
+    step = np.diff(path, axis=0)
+    length = np.linalg.norm(step, axis=1)
+    keep = np.concatenate(([True], length > 1e-12 * max(1.0, float(np.abs(path).max()))))
+    kept = path[keep]
+    if len(kept) < 2:
+        return keep, kept, np.zeros(len(kept))
+    step = np.diff(kept, axis=0)
+    length = np.linalg.norm(step, axis=1)
+    heading = np.unwrap(np.arctan2(step[:, 1], step[:, 0]))
+    turn = np.abs(np.diff(heading))  # at the inner vertices, split onto both sides
+    turning = np.concatenate(([0.0], turn / 2)) + np.concatenate((turn / 2, [0.0]))
+    dc = length / spacing + np.minimum(turning / max_turn, length / min_spacing)
+    return keep, kept, np.concatenate(([0.0], np.cumsum(dc)))
+
+
 def via_points(path: np.ndarray, spacing: float, max_turn: float,
                min_spacing: float | None = None) -> np.ndarray:
     """Points (M, 2) on the polyline ``path`` (N, 2), ends included, spaced uniformly in the
@@ -87,24 +108,23 @@ def via_points(path: np.ndarray, spacing: float, max_turn: float,
     ``max_turn`` of turning apart, so bends get more points, but about ``min_spacing``
     (default spacing/16) apart at least, so a near-cusp does not get a cluster. Repeated
     samples (a path at rest) are dropped."""
-    min_spacing = spacing / 16.0 if min_spacing is None else min_spacing
-    path = np.asarray(path, dtype=float)[:, :2]
-    step = np.diff(path, axis=0)
-    length = np.linalg.norm(step, axis=1)
-    keep = np.concatenate(([True], length > 1e-12 * max(1.0, float(np.abs(path).max()))))
-    path = path[keep]
-    if len(path) < 2:
-        return path[[0, 0]]
-    step = np.diff(path, axis=0)
-    length = np.linalg.norm(step, axis=1)
-    heading = np.unwrap(np.arctan2(step[:, 1], step[:, 0]))
-    turn = np.abs(np.diff(heading))  # at the inner vertices, split onto both sides
-    turning = np.concatenate(([0.0], turn / 2)) + np.concatenate((turn / 2, [0.0]))
-    dc = length / spacing + np.minimum(turning / max_turn, length / min_spacing)
-    measure = np.concatenate(([0.0], np.cumsum(dc)))
+    return via_points_and_times(path, None, spacing, max_turn, min_spacing)[0]
+
+
+def via_points_and_times(path: np.ndarray, times: np.ndarray | None, spacing: float,
+                         max_turn: float, min_spacing: float | None = None
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`via_points` of ``path`` and, when the path's samples have ``times`` (N,),
+    the time at which the path passes each via point (interpolated the same way)."""
+    keep, kept, measure = _via_measure(path, spacing, max_turn, min_spacing)
+    if len(kept) < 2:
+        return kept[[0, 0]], None if times is None else np.asarray(times)[[0, 0]]
     m = max(2, math.ceil(measure[-1]) + 1)
     targets = np.linspace(0.0, measure[-1], m)
-    return np.column_stack([np.interp(targets, measure, path[:, i]) for i in range(2)])
+    points = np.column_stack([np.interp(targets, measure, kept[:, i]) for i in range(2)])
+    if times is None:
+        return points, None
+    return points, np.interp(targets, measure, np.asarray(times, dtype=float)[keep])
 
 
 def _support(plan: MotorPlan) -> tuple[float, float, np.ndarray]:

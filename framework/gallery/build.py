@@ -209,7 +209,8 @@ def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str,
     if not names:  # another kind (a plugin's): its own first three figures
         names = [k for k, v in entry.metrics.items() if isinstance(v, (int, float))][:3]
     metrics = [(k, summary.show(entry.metrics[k])) for k in names]
-    search = " ".join([entry.id, entry.kind, entry.status, entry.label,
+    poor = entry.metrics.get("quality") == "poor"
+    search = " ".join([entry.id, entry.kind, entry.status, entry.label, *(["poor"] * poor),
                        *(f"{k}={v}" for k, v in params)]).lower()
     return {"id": entry.id, "kind": entry.kind, "status": entry.status, "label": entry.label,
             "title": summary.short_label(entry.label),
@@ -221,7 +222,8 @@ def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str,
             "thumb": f"jobs/{entry.id}/thumb.png" if thumb else None,
             "progress": list(entry.progress) if entry.progress else None,
             "error": (entry.error or "").strip().splitlines()[0][:160] if entry.error else None,
-            "problem": entry.problem, "search": search}
+            "problem": entry.problem, "search": search,
+            "poor": poor}
 
 
 def _link(entry: Entry) -> dict[str, Any]:
@@ -276,6 +278,8 @@ def _build_job(entry: Entry, out: Path, env: Any,
             wide=WIDE_FIGURES,
             stages=entry.report.get("stages") if isinstance(entry.report.get("stages"), list)
             else None,
+            warnings=[str(w) for w in entry.report.get("warnings") or []
+                      if isinstance(entry.report.get("warnings"), list)],
             report=[(k, summary.show(v)) for k, v in entry.report.items()
                     if isinstance(v, (int, float, str, bool)) and k not in entry.metrics])
         (stage.path / "index.html").write_text(page, encoding="utf-8")

@@ -31,6 +31,8 @@ class ProgressBar:
     def on_step(self, state: StepState) -> None:
         if self._bar is None:
             return
+        if state.total and state.total != self._bar.total:  # a kind that counts as it goes
+            self._bar.total = state.total
         now = time.monotonic()
         if now - self._shown >= self.refresh_s or state.step == state.total:
             self._shown = now

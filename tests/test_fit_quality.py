@@ -1,0 +1,96 @@
+"""Fit quality on hard inputs at the default settings (issue 19): the fit's own figures
+against the goals, not timings. Sharp polygons (the corners that a plan's overlaps cut and
+a merge used to remove), and, where ../shared is present, the corpus tags whose fit used to
+take another route. A poor fit says so; an option that cannot take effect says why."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "gml"
+#: (a P with a closed, sharp-cornered bowl; a zigzag of 60° turns; a square spiral)
+POLYGONS = {
+    "p": "29,149 29,46 109,46 109,95 68,104 28,93",
+    "zigzag": "10,100 40,40 70,100 100,40 130,100 160,40",
+    "spiral": "80,80 120,80 120,120 40,120 40,40 160,40 160,160",
+}
+#: corpus tags whose default fit missed by 30–78 px before issue 19
+HARD_TAGS = ("corpus/temptTag-2010_7_29_14_0_28.gml", "corpus/temptTag-2010_7_28_15_31_29.gml")
+
+
+def inkmotion(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore", "INKMOTION_THREADS": "1"}
+    return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
+                          text=True, timeout=600, env=env)
+
+
+def _svg(tmp_path: Path, name: str, points: str) -> Path:
+    path = tmp_path / f"{name}.svg"
+    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 170 170">'
+                    f'<polyline points="{points}" fill="none" stroke="black"/></svg>')
+    return path
+
+
+def _fit(source: Path | str, out: Path, *extra: str) -> tuple[dict, subprocess.CompletedProcess]:
+    res = inkmotion("run", "fit", str(source), "--out", str(out), "--no-record", "--seed", "1",
+                    *extra)
+    assert res.returncode == 0, res.stderr
+    return json.loads((out / "report.json").read_text()), res
+
+
+def _meets_the_goals(report: dict) -> None:
+    assert report["chamfer_mean_px"] <= 0.6, report["chamfer_mean_px"]
+    assert report["chamfer_max_px"] <= 8.0, report["chamfer_max_px"]
+    assert report["delta_t_at_clamp"] <= 0.2
+    assert report["quality"] == "good" and "warnings" not in report
+    for stage in report["stages"]:  # every edit says whether it was kept and why
+        if "edit" in stage:
+            assert isinstance(stage["edit"]["kept"], bool) and stage["edit"]["why"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(POLYGONS))
+def test_sharp_polygons_keep_their_corners(tmp_path: Path, name: str) -> None:
+    report, _ = _fit(_svg(tmp_path, name, POLYGONS[name]), tmp_path / "out")
+    _meets_the_goals(report)
+    corners = len(POLYGONS[name].split()) - 1
+    assert report["moves"] >= corners  # every corner keeps a sub-movement of its own
+    assert report["t_end_ratio_multi"] < 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("tag", HARD_TAGS)
+def test_hard_corpus_tags(tmp_path: Path, tag: str) -> None:
+    if not (SHARED / tag).is_file():
+        pytest.skip("../shared/data/gml is not here")
+    report, _ = _fit(SHARED / tag, tmp_path / "out")
+    _meets_the_goals(report)
+    assert report["t_end_ratio_multi"] <= 0.65
+
+
+def test_a_poor_fit_warns_where_and_what_to_try(tmp_path: Path) -> None:
+    """One sub-movement per stroke cannot draw a P: the fit ends, says so in one warning
+    naming the stroke and the distance, and report.json says "poor"."""
+    report, res = _fit(_svg(tmp_path, "p", POLYGONS["p"]), tmp_path / "out", "--targets",
+                       "1", "--steps", "60")
+    assert report["quality"] == "poor"
+    assert report["quality_figures"]["worst_distance_px"] > 8.0
+    warnings = [line for line in res.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1
+    assert "misses stroke 1 of 1 by" in warnings[0] and "--steps" in warnings[0]
+    assert "quality POOR" in res.stdout
+
+
+def test_targets_that_cannot_be_met_say_why(tmp_path: Path) -> None:
+    data = Path(__file__).parent / "data" / "tag.gml"
+    report, res = _fit(data, tmp_path / "out", "--targets", "30", "--steps", "30")
+    assert report["moves"] < 30
+    assert any(w.startswith("--targets 30: the dce initialiser made") for w in
+               report["warnings"])
+    assert "input vertices only" in res.stderr
