@@ -45,7 +45,7 @@ def test_simplify_keeps_the_shape_within_its_tolerance() -> None:
     arc = np.column_stack([100 * np.cos(t), 100 * np.sin(t)])
     kept = simplify(arc, 0.25)
     assert 10 < len(kept) < 100
-    dense = np.vstack([np.linspace(a, b, 20) for a, b in zip(kept[:-1], kept[1:])])
+    dense = np.vstack([np.linspace(a, b, 20) for a, b in zip(kept[:-1], kept[1:], strict=True)])
     r = np.hypot(dense[:, 0], dense[:, 1])
     assert r.min() > 100 - 0.3
 
