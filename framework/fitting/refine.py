@@ -259,6 +259,18 @@ def insert_targets(plans: list[MotorPlan], misses: list[Miss]) -> list[MotorPlan
 MAX_GROWTH = 0.25
 
 
+#: sub-movements a very small plan may gain beyond :data:`MAX_GROWTH` (a 5-move tag with a
+#: hook the DCE missed needs one more, which 25 % of 5 does not give)
+SMALL_PLAN_EXTRA = 2
+
+
+def growth_margin(moves: int) -> int:
+    """The targets all edits of a fit together may add to a plan of ``moves`` sub-movements:
+    :data:`MAX_GROWTH` of them (rounded down) plus :data:`SMALL_PLAN_EXTRA`, the density
+    margin of DESIGN.md (m within 1.25× the authors' count, +2 for very small plans)."""
+    return math.floor(MAX_GROWTH * moves) + SMALL_PLAN_EXTRA
+
+
 def budget(moves: int, fraction: float) -> int:
     """Targets an edit may add to a plan of ``moves`` sub-movements: ``fraction`` of them,
     rounded, and never more than :data:`MAX_GROWTH` of them (rounded down)."""

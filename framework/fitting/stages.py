@@ -38,6 +38,7 @@ from inkmotion.fitting.objective import Objective
 from inkmotion.fitting.optimise import FitResult, OptimiserSettings, optimise
 from inkmotion.fitting.refine import (
     budget,
+    growth_margin,
     insert_targets,
     merge_pinned,
     salient_targets,
@@ -309,6 +310,8 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
         else:  # all rounds together grow it by the share at most
             above = refine.insert_above
             limit = budget(initial_moves, refine.insert_share) - added
+            if rollback:  # a worse edit is undone: the whole density margin may be tried
+                limit = growth_margin(initial_moves) - added
         carry, edits.pending = None, None
         if rollback and edits.frozen:
             plans, inserted, merged = result.plans, 0, 0
