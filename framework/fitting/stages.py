@@ -4,9 +4,17 @@ Modes (the fit job's ``--targets``):
 
 - ``default``: the initialiser's plan is fitted for ``first_share`` of the steps, edited
   once per refinement round (targets inserted at the worst misses above ``insert_above``
-  px, at most ``insert_share`` × the initial m over all rounds, and pinned pairs merged),
-  and fitted on for the rest of the steps, split evenly over the rounds. With 0 rounds it
-  is one plain fit.
+  px, and pinned pairs merged unless their target is a salient corner of the input), and
+  fitted on for the rest of the steps, split evenly over the rounds. With 0 rounds it is
+  one plain fit. With ``rollback`` (version-4 specs) every edit is judged after its refit
+  against the input: it is kept only when the fit's criterion (Chamfer mean / 0.6 px +
+  max / 8 px at 350 px, :mod:`inkmotion.fitting.quality`) fell, by at least
+  :data:`GAIN_PER_TARGET` per inserted target; otherwise the plan and the optimiser state
+  go back to before the edit, the record says so and why, and the fit goes on from there
+  (the next edit without merges if the undone one merged, else no more edits). The edits
+  together may then add up to 25 % of the initial m, +2 (:func:`~inkmotion.fitting.refine.
+  growth_margin`); without ``rollback`` at most ``insert_share`` × the initial m, and
+  every edit is kept (versions 1–3).
 - ``auto``: a first fit of ``steps``, then rounds of a quarter of them (at least 50); after
   each, the Chamfer distance of the fit is measured and recorded with the plan's size,
   and the fit stops as soon as the max distance reaches ``max_error`` px; otherwise
@@ -48,6 +56,11 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
 MAX_AUTO_ROUNDS = 12
+#: default mode: an edit that inserts k targets is kept only if it lowers the criterion
+#: (:func:`inkmotion.fitting.quality.criterion`, goal-normalised) by at least this × k: a
+#: target must buy about 0.03 px of mean or 0.4 px of max distance, or the plan stays
+#: sparser (a ΣΛ plan is not a curve fit: DESIGN.md § Plan density)
+GAIN_PER_TARGET = 0.05
 
 
 @dataclass(frozen=True)
@@ -185,7 +198,8 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     after = criterion(*quality, size)
     entry["edit"] = dict(edits.pending)
     entry["criterion_before"], entry["criterion_after"] = before, after
-    if after <= before:
+    needed = GAIN_PER_TARGET * edits.pending.get("inserted", 0)
+    if after <= before - needed:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
                                 f"{edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
@@ -195,7 +209,9 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     entry["edit"]["kept"] = False
     entry["edit"]["why"] = (f"rolled back: the criterion went {before:.3f} → {after:.3f} "
                             f"(Chamfer {edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
-                            f"{quality[0]:.2f}/{quality[1]:.1f} px)")
+                            f"{quality[0]:.2f}/{quality[1]:.1f} px)"
+                            + (f", less than the {needed:.2f} its {edits.pending['inserted']} "
+                               "new target(s) must gain" if needed and after < before else ""))
     if edits.pending.get("merged", 0) > 0:
         edits.merges_allowed = False
     else:
