@@ -8,7 +8,7 @@ nothing pulls it back. The trace term does, from any distance:
 
     L_trace = mean_{q ∈ Q} ρ(d(q, C)) + mean_{c ∈ F} ρ(d(c, T))
 
-with Q the input points (every ``spacing`` px along each stroke), C the fitted trajectory
+with Q the input points (every ``spacing`` px of arc along each stroke), C the fitted trajectory
 as chords (each Hermite Bézier segment of the fitting grid split at t = ½), F the fitted
 samples (the segments' t = 0 and t = ½ points), T the input polyline's segments, d the
 point-to-segment distance in px and ρ(d) = √(d² + s²) − s the pseudo-Huber penalty
@@ -38,6 +38,7 @@ gradient) is the plain geometric one.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,6 +95,16 @@ def _arc(xy: np.ndarray) -> np.ndarray:
     return np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
 
 
+def _resample(stroke: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points (k, 2) every ``spacing`` px of arc along ``stroke`` (n, 2), its ends
+    included (a recorded trace's own vertices are as dense as its sampling rate: they
+    would weigh slow parts more), and their arc lengths (k,)."""
+    arc = _arc(stroke)
+    n = max(2, math.ceil(float(arc[-1]) / spacing) + 1)
+    at = np.linspace(0.0, float(arc[-1]), n)
+    return np.column_stack([np.interp(at, arc, stroke[:, k]) for k in range(2)]), at
+
+
 def _point_segment_d2(q: torch.Tensor, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """Squared distances (n,) from points ``q`` (n, 2) to segments ``a``→``b`` (n, 2)."""
     ab = b - a
@@ -135,14 +146,13 @@ class TraceReference:
         assert kept, "a trace reference needs a stroke of two points"
         pts, pst, sa, sb, sst, parc, sarc, lengths = [], [], [], [], [], [], [], []
         for i, s in enumerate(kept):
-            d = densify(s, spacing)
+            d, arc = _resample(s, spacing)
             pts.append(d)
             pst.append(np.full(len(d), i))
             v = simplify(s)
             sa.append(v[:-1])
             sb.append(v[1:])
             sst.append(np.full(len(v) - 1, i))
-            arc = _arc(d)
             length = max(float(arc[-1]), 1e-9)
             parc.append(arc / length)
             varc = _arc(v)
@@ -196,7 +206,7 @@ class TraceLoss:
     among them, at a cost linear in the input's length and the plan's size."""
 
     def __init__(self, reference: TraceReference, owners: torch.Tensor,
-                 scale: float = HUBER_SCALE, refresh: int = 10, reach: int = 2) -> None:
+                 scale: float = HUBER_SCALE, refresh: int = 20, reach: int = 2) -> None:
         self.ref = reference
         self.owners = owners.cpu().numpy()  # (n_strokes, P) bool
         self.scale = scale
