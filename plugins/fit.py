@@ -184,9 +184,29 @@ def _fit(job: Job) -> dict[str, Any]:
     staged = fit_in_stages(plans, objective, settings, strokes, p.refine_settings(),
                            job.observers, checkpoints=job.checkpoints)
     report = _write(job, traces, staged, canvas, target)
-    if asked:
-        report["warnings"] = [asked, *report.get("warnings", [])]
+    notes = _ignored_options(p) + ([asked] if asked else [])
+    if notes:
+        report["warnings"] = [*notes, *report.get("warnings", [])]
     return report
+
+
+def _ignored_options(p: FitParams) -> list[str]:
+    """Warnings for options set away from their defaults that the chosen ``--targets`` mode
+    does not use (every option a user sets takes effect or says why not)."""
+    from dataclasses import fields
+
+    defaults = {f.name: f.default for f in fields(FitParams)}
+    only = {"max_error": ("auto",), "refine": ("default",), "merge": ("default",),
+            "rollback": ("default",), "keep_corners": ("default",)}
+    mode = p.targets if p.targets in ("default", "auto") else "N"
+    out = []
+    for name, modes in only.items():
+        value = getattr(p, name)
+        if mode not in modes and value != defaults[name]:
+            flag = "--" + ("no-" if value is False else "") + name.replace("_", "-")
+            out.append(f"{flag} applies to --targets {' or '.join(modes)} only; with "
+                       f"--targets {p.targets} it has no effect.")
+    return out
 
 
 def _targets_note(p: FitParams, plans: list) -> str | None:

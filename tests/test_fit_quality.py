@@ -89,8 +89,12 @@ def test_a_poor_fit_warns_where_and_what_to_try(tmp_path: Path) -> None:
 
 def test_targets_that_cannot_be_met_say_why(tmp_path: Path) -> None:
     data = Path(__file__).parent / "data" / "tag.gml"
-    report, res = _fit(data, tmp_path / "out", "--targets", "30", "--steps", "30")
+    report, res = _fit(data, tmp_path / "out", "--targets", "30", "--steps", "30",
+                       "--max-error", "1.5", "--no-merge")
     assert report["moves"] < 30
     assert any(w.startswith("--targets 30: the dce initialiser made") for w in
                report["warnings"])
     assert "input vertices only" in res.stderr
+    # options of the other modes say that they do nothing here
+    assert "warning: --max-error applies to --targets auto only" in res.stderr
+    assert "warning: --no-merge applies to --targets default only" in res.stderr
