@@ -98,3 +98,17 @@ def test_targets_that_cannot_be_met_say_why(tmp_path: Path) -> None:
     # options of the other modes say that they do nothing here
     assert "warning: --max-error applies to --targets auto only" in res.stderr
     assert "warning: --no-merge applies to --targets default only" in res.stderr
+
+
+def test_the_gallery_card_of_a_poor_fit_says_so(tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    report, _ = _fit(_svg(tmp_path, "p", POLYGONS["p"]), runs / "poor", "--targets", "1",
+                     "--steps", "20")
+    assert report["quality"] == "poor"
+    site = tmp_path / "site"
+    res = inkmotion("gallery", "build", "--no-store", "--from", str(runs), "--out", str(site))
+    assert res.returncode == 0, res.stderr
+    index = (site / "index.html").read_text()
+    assert 'class="poor"' in index and "poor fit" in index
+    page = next(site.glob("jobs/*/index.html")).read_text()
+    assert "misses stroke 1 of 1" in page  # the warning itself on the job's page
