@@ -225,10 +225,13 @@ def _targets_note(p: FitParams, plans: list) -> str | None:
 def _trace_term(traces: Any, plans: list, dtype: Any, device: Any) -> Any:
     """The trace term of the fit (:mod:`inkmotion.fitting.trace_loss`), each stroke owned by
     the paths whose initial trajectory follows it."""
+    from inkmotion.fitting.quality import REFERENCE_SIZE
     from inkmotion.fitting.trace_loss import TraceLoss, TraceReference
     from inkmotion.outputs.sampling import on_cpu, sample
 
-    reference = TraceReference.of(traces.validated().strokes, dtype=dtype, device=device)
+    unit = max(traces.width, traces.height) / REFERENCE_SIZE
+    reference = TraceReference.of(traces.validated().strokes, dtype=dtype, device=device,
+                                  unit=unit)
     owners = reference.ownership([sample(on_cpu(p)).positions for p in plans])
     return TraceLoss(reference, owners)
 

@@ -23,7 +23,9 @@ trajectory runs along it (at least half of its points within ``own_within`` px);
 stroke's points are matched to its owners' chords only, and a path's samples to its
 strokes' segments only. A stroke that no path owns, or a path that owns none (an
 initialiser that does not follow the strokes, e.g. one tour through all of them), is
-matched with everything. The masks are fixed for a fit stage, so a step has static shapes
+matched with everything. Every px constant here is for a 350-px canvas and scales with the
+canvas (the reference's ``unit``), and the term is reported in those px, so a fit at
+700 px weighs it as one at 350 px does. The masks are fixed for a fit stage, so a step has static shapes
 and reads nothing back from the device (DESIGN.md § Devices).
 
 Which pass of the pen. A path that crosses itself (a loop, the two f of "graffiti") passes
@@ -137,11 +139,15 @@ class TraceReference:
     point_arc: torch.Tensor  # (K,) share of its stroke's length before the point, 0..1
     seg_arc: torch.Tensor  # (J,) the same at the segment's midpoint
     lengths: torch.Tensor  # (n_strokes,) px
+    unit: float = 1.0  # px per px of a 350-px canvas: the constants' scale
 
     @classmethod
     def of(cls, strokes: list[np.ndarray], *, dtype: torch.dtype, device: torch.device | str,
-           spacing: float = RECALL_SPACING) -> TraceReference:
-        """From the input ``strokes`` (canvas px; strokes of fewer than 2 points ignored)."""
+           unit: float = 1.0) -> TraceReference:
+        """From the input ``strokes`` (canvas px; strokes of fewer than 2 points ignored);
+        ``unit``: the canvas's size / 350, the scale of every px constant of this module
+        (a fit at 700 px is the same problem as at 350 px, twice as large)."""
+        spacing = RECALL_SPACING * unit
         kept = tuple(np.asarray(s, dtype=np.float64)[:, :2] for s in strokes if len(s) >= 2)
         assert kept, "a trace reference needs a stroke of two points"
         pts, pst, sa, sb, sst, parc, sarc, lengths = [], [], [], [], [], [], [], []
@@ -163,14 +169,15 @@ class TraceReference:
             return torch.as_tensor(np.concatenate(x), dtype=kind, device=device)
 
         return cls(put(pts), put(pst, torch.long), put(sa), put(sb), put(sst, torch.long),
-                   kept, put(parc), put(sarc), put(lengths))
+                   kept, put(parc), put(sarc), put(lengths), float(unit))
 
     def ownership(self, initial_positions: list[np.ndarray],
-                  own_within: float = OWN_WITHIN) -> torch.Tensor:
+                  own_within: float | None = None) -> torch.Tensor:
         """(n_strokes, P) bool: which paths may cover which stroke (module docstring), from
         each path's initial trajectory samples (n_p, ≥2)."""
         from scipy.spatial import cKDTree
 
+        own_within = OWN_WITHIN * self.unit if own_within is None else own_within
         n, paths = len(self.strokes), len(initial_positions)
         own = np.zeros((n, paths), dtype=bool)
         for p, xy in enumerate(initial_positions):
@@ -196,7 +203,8 @@ def _nearest(d2: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor,
 
 class TraceLoss:
     """L_trace of a fit stage (module docstring): call with the fitting grid's Bézier
-    segments (S, 4, D) and their layout; returns a 0-d tensor (px).
+    segments (S, 4, D) and their layout; returns a 0-d tensor (px of a 350-px canvas:
+    the canvas's px divided by the reference's ``unit``).
 
     The nearest chord of every recall point and the nearest input segment of every fitted
     sample are searched, without gradient, over the pairs the ownership allows (index
@@ -206,8 +214,9 @@ class TraceLoss:
     among them, at a cost linear in the input's length and the plan's size."""
 
     def __init__(self, reference: TraceReference, owners: torch.Tensor,
-                 scale: float = HUBER_SCALE, refresh: int = 20, reach: int = 2) -> None:
+                 scale: float | None = None, refresh: int = 20, reach: int = 2) -> None:
         self.ref = reference
+        scale = HUBER_SCALE * reference.unit if scale is None else scale
         self.owners = owners.cpu().numpy()  # (n_strokes, P) bool
         self.scale = scale
         self.refresh, self.reach = refresh, reach
@@ -281,19 +290,21 @@ class TraceLoss:
             share = (done + 0.5 * length) / (after[last] - before[first]).clamp(min=1e-9)
             stroke_len = ref.lengths[ref.point_stroke]  # (K,)
             d2 = _point_segment_d2(ref.points[rk], starts[rc], ends[rc]) + self._band(
-                ref.point_arc[rk] - share[rc], stroke_len[rk], self._recall_banded)
+                ref.point_arc[rk] - share[rc], stroke_len[rk], self._recall_banded,
+                ref.unit)
             chord = _nearest(d2, rk, rc, ref.points.shape[0])
             d2 = _point_segment_d2(starts[ps], ref.seg_a[pj], ref.seg_b[pj]) + self._band(
                 share[ps] - ref.seg_arc[pj], ref.lengths[ref.seg_stroke[pj]],
-                self._precision_banded)
+                self._precision_banded, ref.unit)
             segment = _nearest(d2, ps, pj, starts.shape[0])
         self._near = (chord, segment)
 
     @staticmethod
-    def _band(offset: torch.Tensor, length: torch.Tensor, banded: torch.Tensor) -> torch.Tensor:
+    def _band(offset: torch.Tensor, length: torch.Tensor, banded: torch.Tensor,
+              unit: float) -> torch.Tensor:
         """px²: the squared excess of |offset|·length (px along the stroke) over the band
-        max(BAND_MIN_PX, BAND_SHARE·length), where ``banded``; 0 elsewhere."""
-        band = torch.clamp(BAND_SHARE * length, min=BAND_MIN_PX)
+        max(BAND_MIN_PX·unit, BAND_SHARE·length), where ``banded``; 0 elsewhere."""
+        band = torch.clamp(BAND_SHARE * length, min=BAND_MIN_PX * unit)
         excess = torch.relu(offset.abs() * length - band)
         return torch.where(banded, excess * excess, 0.0)
 
@@ -335,4 +346,4 @@ class TraceLoss:
         s2 = self.scale * self.scale
         recall = (recall.view(-1, w).amin(1) + s2).sqrt()  # (K,) ρ + s
         precision = (precision.view(-1, w).amin(1) + s2).sqrt()  # (2S,) ρ + s
-        return recall.mean() + precision.mean() - 2.0 * self.scale
+        return (recall.mean() + precision.mean() - 2.0 * self.scale) / self.ref.unit
