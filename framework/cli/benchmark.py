@@ -44,7 +44,7 @@ def benchmark_cmd(
 
     Examples:
 
-      inkmotion benchmark ../shared/data/gml/4986*.json --out bench/base
+      inkmotion benchmark tags/4986*.json --out bench/base
 
       inkmotion benchmark tags/ text:hello --out bench/lambda40 --param lambda_smooth=40
 

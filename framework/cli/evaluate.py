@@ -37,7 +37,7 @@ def evaluate_cmd(
 
       inkmotion evaluate plan.json --vmax 0.5 --amax 5 --out r/eval
 
-      inkmotion evaluate plan.json --recording ../shared/data/gml/49867.json --out r/eval
+      inkmotion evaluate plan.json --recording tags/49867.json --out r/eval
     """
     from inkmotion.cli.run import _run_kind
 

@@ -73,7 +73,8 @@ def bench_cmd(
              "(opt-in: CLIP tag and abstract seconds per step) or gallery (opt-in: build "
              "the gallery of 100 jobs, rebuild it after one more).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
-        help="Input of the fit benchmark (default: ../shared 49867.json, else text:inkmotion).")
+        help="Input of the fit benchmark (default: the development tag 49867.json "
+             "when it sits beside the repository, else text:inkmotion).")
     ] = None,
     threads: Annotated[int, typer.Option(help="torch threads (the targets assume 2).")] = 2,
     device: Annotated[str, typer.Option(

@@ -59,7 +59,7 @@ MAX_AUTO_ROUNDS = 12
 #: default mode: an edit that inserts k targets is kept only if it lowers the criterion
 #: (:func:`inkmotion.fitting.quality.criterion`, goal-normalised) by at least this × k: a
 #: target must buy about 0.03 px of mean or 0.4 px of max distance, or the plan stays
-#: sparser (a ΣΛ plan is not a curve fit: DESIGN.md § Plan density)
+#: sparser (a ΣΛ plan is a model of movement, about one target per stroke, not a curve fit)
 GAIN_PER_TARGET = 0.05
 
 

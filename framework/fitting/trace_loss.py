@@ -26,7 +26,7 @@ initialiser that does not follow the strokes, e.g. one tour through all of them)
 matched with everything. Every px constant here is for a 350-px canvas and scales with the
 canvas (the reference's ``unit``), and the term is reported in those px, so a fit at
 700 px weighs it as one at 350 px does. The masks are fixed for a fit stage, so a step has
-static shapes and reads nothing back from the device (DESIGN.md § Devices).
+static shapes and reads nothing back from the device.
 
 Which pass of the pen. A path that crosses itself (a loop, the two f of "graffiti") passes
 some places twice; the nearest chord to an input point may then be the other pass, and a
