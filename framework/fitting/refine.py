@@ -266,9 +266,8 @@ SMALL_PLAN_EXTRA = 2
 
 def growth_margin(moves: int) -> int:
     """The targets all edits of a fit together may add to a plan of ``moves`` sub-movements:
-    :data:`MAX_GROWTH` of them (rounded down) plus :data:`SMALL_PLAN_EXTRA`, the density
-    margin of the fit's density goal: m within 1.25× the authors' count, +2 for very small
-    plans)."""
+    :data:`MAX_GROWTH` of them (rounded down) plus :data:`SMALL_PLAN_EXTRA`: the margin of
+    the fit's density goal, m within 1.25× the authors' count, +2 for very small plans."""
     return math.floor(MAX_GROWTH * moves) + SMALL_PLAN_EXTRA
 
 
