@@ -253,8 +253,8 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
     import json
 
     from inkmotion.evaluation.fit_motion import delta_t_at_clamp, fit_speed_peaks
+    from inkmotion.fitting.quality import chamfer_of
     from inkmotion.geometry.bezier import bezier_segments
-    from inkmotion.geometry.chamfer import chamfer
     from inkmotion.outputs import (
         write_overlay,
         write_png,
@@ -262,14 +262,14 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
         write_svg,
         write_trajectory_csv,
     )
-    from inkmotion.outputs.sampling import on_cpu, sample
+    from inkmotion.outputs.sampling import on_cpu
     from inkmotion.sigma_lognormal import Drawing
 
     folder = job.folder
     fit = staged.result
     plans = [on_cpu(p) for p in fit.plans]
     size = (float(canvas[0]), float(canvas[1]))
-    chamfer_mean, chamfer_max = chamfer(traces.strokes, [sample(p).positions for p in plans])
+    chamfer_mean, chamfer_max = chamfer_of(traces.strokes, plans)
     t0, t1 = sum(staged.initial_t_end), sum(fit.final_t_end)
     drawing = Drawing(size, plans)
     metrics = {"chamfer_mean_px": chamfer_mean, "chamfer_max_px": chamfer_max,
@@ -296,7 +296,7 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
         "stages": staged.stages,
         "metrics": metrics,
     }
-    report.update(quality_verdict(traces, plans, size, job.params))
+    report.update(quality_verdict(traces, plans, size, chamfer_max, job.params))
     metrics["quality"] = report["quality"]
     if job.checkpoints is not None:  # the job record's metrics carry it too
         report["resumed_from_step"] = metrics["resumed_from_step"] = staged.resumed_from_step
@@ -326,18 +326,19 @@ def _write(job: Job, traces: Any, staged: Any, canvas: tuple[int, int], target: 
     return report
 
 
-def quality_verdict(traces: Any, plans: list, size: tuple[float, float],
+def quality_verdict(traces: Any, plans: list, size: tuple[float, float], chamfer_max: float,
                     p: FitParams) -> dict[str, Any]:
-    """``quality`` ("good" or "poor": the max Chamfer distance above 8 px at 350 px, scaled
-    with the canvas, :mod:`inkmotion.fitting.quality`) and, when poor, ``quality_figures``
-    and one warning naming where the fit misses most and what to try."""
+    """``quality`` ("good" or "poor": the max Chamfer distance ``chamfer_max`` above 8 px at
+    350 px, scaled with the canvas, :mod:`inkmotion.fitting.quality`) and, when poor,
+    ``quality_figures`` and one warning naming where the fit misses most and what to try
+    (only then is the worst miss looked for)."""
     from inkmotion.fitting.quality import poor_above, worst_miss
 
     longer = max(size)
     limit = poor_above(longer)
-    miss = worst_miss([s[:, :2] for s in traces.strokes], plans)
-    if miss.distance <= limit:
+    if chamfer_max <= limit:
         return {"quality": "good"}
+    miss = worst_miss([s[:, :2] for s in traces.strokes], plans)
     tries = []
     if p.targets != "auto":
         tries.append("--targets auto")

@@ -114,10 +114,17 @@ def compare(plan: Any, v_max: float, a_max: float, scale: float, rate: float = 1
         progress(len(METHODS))
     timed = dict(zip(METHODS, timings, strict=True))
     table = {name: method_figures(path, scale, rate) for name, path in timed.items()}
+    return Comparison(timed, table, *ratios_and_directions(table))
+
+
+def ratios_and_directions(table: dict[str, dict[str, float]]
+                          ) -> tuple[dict[str, dict[str, float]], dict[str, bool | None]]:
+    """The ratios method/ΣΛ of a table of figures (:func:`ratio_row`) and, per
+    "method/metric", whether the paper's direction holds (None: it states none)."""
     ratios = {name: ratio_row(table[name], table[METHODS[0]]) for name in METHODS[1:]}
     holds = {f"{m}/{k}": (None if want is None else bool((ratios[m][k] > 1) == want))
              for (m, k), want in PAPER_DIRECTION.items()}
-    return Comparison(timed, table, ratios, holds)
+    return ratios, holds
 
 
 def ratio_row(method: dict[str, float], sigma: dict[str, float]) -> dict[str, float]:
@@ -149,9 +156,7 @@ def run_evaluate(job: Job) -> dict[str, Any]:
             progress=lambda k, j=j: job.observers.on_step(
                 StepState(j * n + k, n * len(indices), {}, 0.0)))
     table = _over_paths(per_path)
-    ratios = {name: ratio_row(table[name], table[METHODS[0]]) for name in METHODS[1:]}
-    holds = {f"{m}/{k}": (None if want is None else bool((ratios[m][k] > 1) == want))
-             for (m, k), want in PAPER_DIRECTION.items()}
+    ratios, holds = ratios_and_directions(table)
     sigma = per_path[shown].timed[METHODS[0]]
     minima = M.speed_minima_at_curvature_maxima(sigma.position * scale, 1.0 / p.rate)
     doc = {"path": "all" if p.path < 0 else shown, "moves": sum(drawing.plans[i].m
@@ -170,7 +175,7 @@ def run_evaluate(job: Job) -> dict[str, Any]:
         doc["human"] = human_figures(p.recording, drawing, job.folder)
     (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
     write_csv(job.folder / "evaluation.csv", table, ratios,
-              {i: c for i, c in per_path.items()} if len(per_path) > 1 else None)
+              per_path if len(per_path) > 1 else None)
     from inkmotion.evaluation.plots import plot_minima, plot_speeds
 
     plot_speeds(job.folder / "speeds.png", per_path[shown].timed, scale)

@@ -190,6 +190,13 @@ class TraceReference:
         return torch.as_tensor(own, device=self.points.device)
 
 
+def _group_ranges(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each element of ``group`` (n,), sorted (its runs are contiguous), the first and
+    last index of its run."""
+    return (np.searchsorted(group, group, side="left"),
+            np.searchsorted(group, group, side="right") - 1)
+
+
 def _nearest(d2: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor,
              n_rows: int) -> torch.Tensor:
     """For each row, the col of its pair with the smallest ``d2`` (n_rows,) long; every row
@@ -228,9 +235,7 @@ class TraceLoss:
         self._offsets = offsets  # (2·reach + 1,)
         # each input segment's stroke range [first, last] (J,), for the neighbours
         stroke = reference.seg_stroke.cpu().numpy()
-        idx = np.arange(len(stroke))
-        first = np.array([idx[stroke == s].min() for s in stroke])
-        last = np.array([idx[stroke == s].max() for s in stroke])
+        first, last = _group_ranges(stroke)
         self._seg_range = (torch.as_tensor(first, device=offsets.device),
                            torch.as_tensor(last, device=offsets.device))
 
@@ -258,9 +263,7 @@ class TraceLoss:
                         [np.flatnonzero(self.owners[s][half_path]) for s in strokes], device)
         precision = _pairs([np.flatnonzero(half_path == p) for p in paths],
                            [np.flatnonzero(self.owners[seg_stroke, p]) for p in paths], device)
-        idx = np.arange(len(half_path))
-        first = np.array([idx[half_path == p].min() for p in half_path])
-        last = np.array([idx[half_path == p].max() for p in half_path])
+        first, last = _group_ranges(half_path)
         self._pairs = recall + precision
         # a stroke and a path that own only each other: their pairs are banded
         one = (self.owners.sum(1) == 1)[:, None] & (self.owners.sum(0) == 1)[None, :] \
