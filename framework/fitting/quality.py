@@ -48,7 +48,7 @@ def poor_above(size: float) -> float:
 
 
 @dataclass(frozen=True)
-class Miss:
+class WorstMiss:
     """Where a fit misses its input most: the input stroke (0-based, in the input's order),
     the input point (x, y) there and its distance to the fitted motion (px)."""
 
@@ -57,7 +57,7 @@ class Miss:
     distance: float
 
 
-def worst_miss(strokes: list[np.ndarray], plans: list[MotorPlan]) -> Miss:
+def worst_miss(strokes: list[np.ndarray], plans: list[MotorPlan]) -> WorstMiss:
     """The input point farthest from the fitted motion (the input → fit half of the Hausdorff
     distance, where a missing loop shows), or the fitted sample farthest from the input
     when that is farther (a stroke drawn where the input has none), named by the stroke
@@ -75,8 +75,8 @@ def worst_miss(strokes: list[np.ndarray], plans: list[MotorPlan]) -> Miss:
     d_fit, near = cKDTree(inputs).query(fitted)
     if d_in.max() >= d_fit.max():
         k = int(np.argmax(d_in))
-        return Miss(int(stroke_of[k]), (float(inputs[k, 0]), float(inputs[k, 1])),
+        return WorstMiss(int(stroke_of[k]), (float(inputs[k, 0]), float(inputs[k, 1])),
                     float(d_in[k]))
     k = int(np.argmax(d_fit))
-    return Miss(int(stroke_of[near[k]]), (float(fitted[k, 0]), float(fitted[k, 1])),
+    return WorstMiss(int(stroke_of[near[k]]), (float(fitted[k, 0]), float(fitted[k, 1])),
                 float(d_fit[k]))
