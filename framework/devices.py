@@ -8,10 +8,24 @@ promise the fitted virtual targets within 0.05 px and the loss terms within 1e-3
 relative, not bit equality (``torch.use_deterministic_algorithms`` would make those ops
 raise on CUDA, so it is not switched on).
 
-Threads. PyTorch's default (one thread per core) is a poor fit for this workload: its
-ops are small and many, and on a 16-core machine 16 threads ran the reference fit 2×
-slower than 2. Unless the user set ``INKMOTION_THREADS`` (or ``OMP_NUM_THREADS``), a job
-uses min(4, available cores) intra-op threads.
+Threads. A job's ops are small and many (about a thousand per fit step), so an intra-op
+thread buys little (a lone default fit: about 10 % faster with 2 threads than with 1 on 2
+cores), and threads that outnumber the cores wait on each other at every OpenMP barrier
+(two fits of 2 threads each on 2 cores: 50× slower each). The policy
+(:func:`default_threads`): ``INKMOTION_THREADS`` (or ``OMP_NUM_THREADS``) when set; else
+the cores this process may use divided by the jobs that share them, at most
+``MAX_DEFAULT_THREADS``. Who shares them: a worker or benchmark with n slots says so in
+``INKMOTION_JOB_SLOTS`` (each of its n processes gets cores // n); a lone ``inkmotion run``
+counts the other inkmotion jobs running on this machine when it starts (a registry of
+pid files, :class:`RunningJobs`). Inter-op threads are 1 (nothing here runs ops
+concurrently), and a process whose slots share the cores asks OpenMP not to spin
+(``OMP_WAIT_POLICY=PASSIVE``, before torch loads).
+
+The thread count is part of a CPU result: torch's large reductions and MKL's small matrix
+products split their work by thread, so 1 and 2 threads give plans that differ in the last
+bits (never in quality). report.json records ``threads``; a job run again with
+``INKMOTION_THREADS`` set to it reproduces its plan.json bit for bit, and a checkpoint
+records it too (a resume with another count says so).
 """
 
 from __future__ import annotations
@@ -46,24 +60,116 @@ def resolve_device(name: str) -> Any:
     return device
 
 
-def default_threads() -> int:
-    """Intra-op threads for a job (see the module docstring)."""
-    for env in ("INKMOTION_THREADS", "OMP_NUM_THREADS"):
-        value = os.environ.get(env, "").strip()
-        if value.isdigit() and int(value) > 0:
-            return int(value)
+#: the environment variable a worker or benchmark sets for its processes: how many jobs
+#: share this machine's cores at once (see the module docstring)
+SLOTS_ENV = "INKMOTION_JOB_SLOTS"
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity, else the machine's count)."""
     try:
-        cores = len(os.sched_getaffinity(0))
+        return len(os.sched_getaffinity(0))
     except AttributeError:  # macOS, Windows
-        cores = os.cpu_count() or 1
-    return max(1, min(MAX_DEFAULT_THREADS, cores))
+        return os.cpu_count() or 1
+
+
+def threads_per_job(slots: int = 1, cores: int | None = None) -> int:
+    """Intra-op threads of one of ``slots`` jobs sharing ``cores`` (default: this process's):
+    max(1, cores // slots), at most :data:`MAX_DEFAULT_THREADS`."""
+    cores = available_cores() if cores is None else cores
+    return max(1, min(MAX_DEFAULT_THREADS, cores // max(1, slots)))
+
+
+def _env_int(name: str) -> int | None:
+    value = os.environ.get(name, "").strip()
+    return int(value) if value.isdigit() and int(value) > 0 else None
+
+
+def default_threads() -> int:
+    """Intra-op threads for a job now (the policy of the module docstring)."""
+    for env in ("INKMOTION_THREADS", "OMP_NUM_THREADS"):
+        if (value := _env_int(env)) is not None:
+            return value
+    slots = _env_int(SLOTS_ENV)
+    if slots is None:
+        slots = 1 + RunningJobs().others()
+    return threads_per_job(slots)
+
+
+def share_cores(slots: int) -> int:
+    """For a process about to start ``slots`` jobs side by side (a worker pool, a benchmark):
+    tell them through the environment they hand to their children, before torch loads;
+    returns each job's thread count."""
+    os.environ[SLOTS_ENV] = str(max(1, slots))
+    if slots > 1:
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    return default_threads()
 
 
 def configure_threads(threads: int | None = None) -> int:
-    """Set torch's intra-op thread count (``None``: :func:`default_threads`); returns it."""
+    """Set torch's intra-op thread count (``None``: :func:`default_threads`) and a single
+    inter-op thread; returns the intra-op count."""
     import torch
 
     n = threads or default_threads()
     if torch.get_num_threads() != n:
         torch.set_num_threads(n)
+    if torch.get_num_interop_threads() != 1:
+        try:
+            torch.set_num_interop_threads(1)
+        except RuntimeError:  # inter-op work already ran in this process: keep its pool
+            pass
     return n
+
+
+class RunningJobs:
+    """The inkmotion jobs running on this machine: one file per process, named by its pid,
+    holding its thread count, in ``INKMOTION_RUN_DIR`` (default: a folder of the user's
+    temporary directory). A file whose process is gone does not count (and is removed)."""
+
+    def __init__(self, folder: str | os.PathLike | None = None) -> None:
+        import tempfile
+        from pathlib import Path
+
+        base = folder or os.environ.get("INKMOTION_RUN_DIR") or (
+            Path(tempfile.gettempdir()) / f"inkmotion-running-{os.getuid()}"
+            if hasattr(os, "getuid") else Path(tempfile.gettempdir()) / "inkmotion-running")
+        self.folder = Path(base)
+
+    def _live(self) -> list[int]:
+        pids = []
+        try:
+            entries = list(self.folder.iterdir())
+        except OSError:
+            return []
+        for entry in entries:
+            if not entry.name.isdigit():
+                continue
+            pid = int(entry.name)
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                entry.unlink(missing_ok=True)
+                continue
+            except PermissionError:  # alive, another user's
+                pass
+            pids.append(pid)
+        return pids
+
+    def others(self) -> int:
+        """How many other processes are running inkmotion jobs now."""
+        return sum(1 for pid in self._live() if pid != os.getpid())
+
+    def enter(self, threads: int) -> None:
+        """Register this process (with its thread count) until :meth:`leave` or its exit."""
+        import atexit
+
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            (self.folder / str(os.getpid())).write_text(str(threads))
+        except OSError:  # a read-only temporary folder: neighbours just will not see us
+            return
+        atexit.register(self.leave)
+
+    def leave(self) -> None:
+        (self.folder / str(os.getpid())).unlink(missing_ok=True)

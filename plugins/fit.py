@@ -141,17 +141,45 @@ class FitKind:
         return params.steps
 
     def run(self, job: Job) -> dict[str, Any]:
-        return _fit(job)
+        from inkmotion.fitting.stages import fit_in_stages
+
+        problem, finish = _prepare(job)
+        return finish(fit_in_stages(problem.plans, problem.objective, problem.settings,
+                                    problem.strokes, problem.refine, problem.observers,
+                                    problem.checkpoints))
+
+    def run_together(self, jobs: list[Job]) -> list[dict[str, Any] | BaseException]:
+        """Several fit jobs as one batched optimisation
+        (:func:`~inkmotion.fitting.stages.fit_together_in_stages`), each with its own
+        input, plan edits, observers, checkpoints and artifacts: a report per job, or the
+        error of a job whose input could not be read (the others go on without it)."""
+        from inkmotion.errors import InkmotionError
+        from inkmotion.fitting.stages import fit_together_in_stages
+        from inkmotion.jobs.shell import seed_everything
+
+        outcomes: list[Any] = []
+        for job in jobs:
+            seed_everything(job.spec.seed)  # as run_job seeds a job before its run
+            try:
+                outcomes.append(_prepare(job))
+            except InkmotionError as exc:
+                outcomes.append(exc)
+        ready = [o for o in outcomes if not isinstance(o, BaseException)]
+        staged = iter(fit_together_in_stages([problem for problem, _ in ready]) if ready
+                      else [])
+        return [o if isinstance(o, BaseException) else o[1](next(staged)) for o in outcomes]
 
 
-def _fit(job: Job) -> dict[str, Any]:
-    """Read, initialise, optimise, write the artifacts; return the report."""
+def _prepare(job: Job) -> tuple[Any, Any]:
+    """Read, initialise and set up the optimisation of a fit job: its
+    :class:`~inkmotion.fitting.stages.StagedProblem`, and the function that writes the
+    artifacts of its staged fit and returns the report."""
     import numpy as np
     import torch
 
     from inkmotion.fitting.objective import Objective, Weights
     from inkmotion.fitting.optimise import OptimiserSettings
-    from inkmotion.fitting.stages import fit_in_stages
+    from inkmotion.fitting.stages import StagedProblem
     from inkmotion.geometry.read import read_input
     from inkmotion.plugin_host.protocols import JobInputs, Reference
 
@@ -181,13 +209,16 @@ def _fit(job: Job) -> dict[str, Any]:
                                  p.lr_final)
     job.start(canvas, target, traces.strokes)
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
-    staged = fit_in_stages(plans, objective, settings, strokes, p.refine_settings(),
-                           job.observers, checkpoints=job.checkpoints)
-    report = _write(job, traces, staged, canvas, target)
-    notes = _ignored_options(p) + ([asked] if asked else [])
-    if notes:
-        report["warnings"] = [*notes, *report.get("warnings", [])]
-    return report
+
+    def finish(staged: Any) -> dict[str, Any]:
+        report = _write(job, traces, staged, canvas, target)
+        notes = _ignored_options(p) + ([asked] if asked else [])
+        if notes:
+            report["warnings"] = [*notes, *report.get("warnings", [])]
+        return report
+
+    return StagedProblem(plans, objective, settings, strokes, p.refine_settings(),
+                         job.observers, job.checkpoints), finish
 
 
 def _ignored_options(p: FitParams) -> list[str]:

@@ -25,6 +25,8 @@ class RasterRenderer:
 
     name = "raster"
     description = "Differentiable anti-aliased stroke rasterizer (plain PyTorch, CPU and CUDA)."
+    #: its sessions draw several drawings per call (a batched fit)
+    renders_canvases = True
 
     def __call__(
         self, segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int

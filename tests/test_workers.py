@@ -241,6 +241,38 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
         pool.stop_all()
 
 
+def test_a_batch_of_fits_on_one_worker_survives_a_kill_9(worker_pool, service_env, tmp_path):
+    """``inkmotion worker --batch 3``: three queued fits run as one batched optimisation
+    (each reports ``batch: 3``); killed with SIGKILL mid-batch, the worker's leases expire,
+    the reaper queues the jobs again, and another batch worker completes each exactly once
+    (one result set each, resumed from its own checkpoint or from the start)."""
+    from inkmotion.workers.local import WorkerPool
+
+    worker_pool.stop_all()
+    env = {**service_env, **DEFAULT_LIMITS, "INKMOTION_WORKER_BATCH": "3"}
+    pool = WorkerPool(env, tmp_path / "logs")
+    try:
+        ids = [submit(w, "--steps", "900", "--size", "128")[0]
+               for w in ("text:hi", "text:ok", "text:go")]
+        pool.ensure(("b1",))
+        wait_for(lambda: all(_running(i, min_step=60) for i in ids) or None, 120)
+        assert {store.get_job(i).worker_host for i in ids} == {store.get_job(ids[0]).worker_host}
+        pool.kill("b1")
+        pool.ensure(("b2",))
+        wait_succeeded(*ids, timeout=240)
+        data = Path(service_env["INKMOTION_DATA_DIR"])
+        for i in ids:
+            r = store.get_job(i)
+            assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 900
+            assert_one_result_set(r, data)
+            log = (data / "jobs" / i / "job.log").read_text()
+            assert "a batch of 3" in log
+            report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
+            assert report["steps"] == 900
+    finally:
+        pool.stop_all()
+
+
 def test_sigterm_hands_the_running_job_back_at_once(worker_pool, service_env, tmp_path):
     """A redeploy: SIGTERM to the worker running a job. It checkpoints the job, puts it
     back on the queue and exits within seconds; the other worker resumes it from that

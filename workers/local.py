@@ -160,6 +160,9 @@ class WorkerPool:
     logs: Path
     procs: dict[str, subprocess.Popen[bytes]] = field(default_factory=dict)
     queues: tuple[str, ...] = ()
+    #: job slots per worker: > 1 runs a prefork pool of that many children, each told it
+    #: shares the cores with the others (INKMOTION_JOB_SLOTS) instead of one thread
+    concurrency: int = 1
 
     def __post_init__(self) -> None:
         if not self.queues:
@@ -169,8 +172,10 @@ class WorkerPool:
 
     def command(self, name: str) -> list[str]:
         """The command line of worker ``name``."""
+        pool = "solo" if self.concurrency == 1 else "prefork"
         return [sys.executable, "-m", "celery", "-A", "inkmotion.workers.app", "worker",
-                "--pool=solo", "--concurrency=1", f"--queues={','.join(self.queues)}",
+                f"--pool={pool}", f"--concurrency={self.concurrency}",
+                f"--queues={','.join(self.queues)}",
                 "--without-heartbeat", "--without-gossip", "--without-mingle",
                 f"--hostname={name}@%h", "--loglevel=info"]
 
@@ -190,7 +195,11 @@ class WorkerPool:
         self.logs.mkdir(parents=True, exist_ok=True)
         log = self.log_path(name)
         offset = log.stat().st_size if log.exists() else 0
-        env = {**os.environ, **self.env, "OMP_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"}
+        from inkmotion.devices import SLOTS_ENV
+
+        threads = ({"OMP_NUM_THREADS": "1"} if self.concurrency == 1 else
+                   {SLOTS_ENV: str(self.concurrency), "OMP_WAIT_POLICY": "PASSIVE"})
+        env = {**os.environ, **self.env, **threads, "PYTHONUNBUFFERED": "1"}
         with open(log, "ab") as fh:
             self.procs[name] = proc = subprocess.Popen(
                 self.command(name), env=env, stdout=fh, stderr=subprocess.STDOUT,

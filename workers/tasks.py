@@ -114,14 +114,19 @@ def _worker_host(task: Any) -> str:
     return getattr(task.request, "hostname", None) or socket.gethostname()
 
 
+#: the environment variable ``inkmotion worker --batch B`` sets for its processes
+BATCH_ENV = "INKMOTION_WORKER_BATCH"
+
+
 @app.task(name=TASK_NAME, bind=True, max_retries=MAX_RETRIES)
-def run_job_task(self: Any, job_id: str) -> str:
-    """Run the recorded job ``job_id``; returns its final status."""
+def run_job_task(self: Any, job_id: str, alone: bool = False) -> str:
+    """Run the recorded job ``job_id``; returns its final status. ``alone``: never in a
+    batch (a batch it was in failed, so it runs on its own)."""
     from inkmotion.settings import load_settings
 
     settings = load_settings()
     try:
-        return _run(self, job_id, settings)
+        return _run(self, job_id, settings, alone)
     except transient_errors() as exc:
         if self.request.retries >= MAX_RETRIES:
             _give_up(job_id, settings, exc)
@@ -144,7 +149,7 @@ def _give_up(job_id: str, settings: Any, exc: BaseException) -> None:
         log.exception("job %s: could not record the failure", job_id)
 
 
-def _run(task: Any, job_id: str, settings: Any) -> str:
+def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
     from inkmotion import store
     from inkmotion.errors import InkmotionError
 
@@ -176,6 +181,9 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
             log.info("job %s: artifacts already complete from an earlier attempt", job_id)
             store.mark_succeeded(job_id, str(artifacts), db)
             return "succeeded"
+        companions = [] if alone else _claim_companions(record, host, owner, settings)
+        if companions:
+            return _run_together([record, *companions], owner, settings)
         started = time.perf_counter()
         try:
             with Heartbeat(job_id, owner, db, settings.lease_s) as beat:
@@ -218,9 +226,54 @@ def _run(task: Any, job_id: str, settings: Any) -> str:
         return "succeeded"
 
 
-def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
-             beat: Heartbeat, settings: Any) -> dict:
-    from inkmotion.jobs.shell import run_job
+def _batch_size() -> int:
+    import os
+
+    value = os.environ.get(BATCH_ENV, "").strip()
+    return int(value) if value.isdigit() and int(value) > 0 else 1
+
+
+def _claim_companions(record: Any, host: str, owner: str, settings: Any) -> list[Any]:
+    """Up to ``--batch`` − 1 queued jobs that can run in one batched optimisation with
+    ``record`` (:func:`inkmotion.jobs.shell.batchable`: same kind, queue and parameters),
+    oldest first, each taken by this attempt's lease as its own message would take it.
+    Their messages, delivered later, find them running or finished and do nothing."""
+    size = _batch_size()
+    if size <= 1:
+        return []
+    from inkmotion import store
+    from inkmotion.jobs.shell import batchable
+    from inkmotion.jobs.spec import JobSpec
+
+    try:
+        spec = JobSpec.from_dict(record.spec)
+        if not batchable([spec, spec]):
+            return []
+    except Exception:  # noqa: BLE001 - a bad spec fails in its own run, alone
+        return []
+    claimed = []
+    queued = store.list_jobs(status="queued", limit=20 * size, db_url=settings.db_url)
+    for other in sorted(queued, key=lambda r: r.created_at):
+        if len(claimed) >= size - 1:
+            break
+        if other.id == record.id or other.queue != record.queue:
+            continue
+        if (settings.job_dir(other.id) / "artifacts" / "report.json").is_file():
+            continue  # complete from an earlier attempt: its own message records it
+        try:
+            if not batchable([spec, JobSpec.from_dict(other.spec)]):
+                continue
+        except Exception:  # noqa: BLE001 - it fails in its own run
+            continue
+        if store.mark_running(other.id, host, settings.db_url, owner=owner,
+                              lease_s=settings.lease_s):
+            claimed.append(other)
+    return claimed
+
+
+def _localised(job_id: str, spec_dict: dict, artifacts: Path) -> Any:
+    """The job's spec, its inputs read from the job's own storage where the original path
+    is not mounted here."""
     from inkmotion.jobs.spec import JobSpec
 
     spec = JobSpec.from_dict(spec_dict, source=f"job {job_id}")
@@ -228,6 +281,78 @@ def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
         local = artifacts.parent / "input" / name / Path(value).name
         if not Path(value).exists() and local.exists():
             spec.inputs[name] = str(local)  # the data directory is mounted elsewhere here
+    return spec
+
+
+def _run_together(records: list[Any], owner: str, settings: Any) -> str:
+    """Run jobs (all running under ``owner``'s lease) as one batched optimisation, each
+    with its own heartbeat, progress, checkpoint and result; the first is this task's.
+    Should the batch stop (a cancel, a shutdown, a lost lease, an error), every job still
+    ours goes back to its queue to run alone: none is lost, none runs twice."""
+    from contextlib import ExitStack
+
+    from inkmotion import store
+    from inkmotion.errors import InkmotionError
+    from inkmotion.jobs.shell import Together, run_jobs_together
+
+    db = settings.db_url
+    ids = [r.id for r in records]
+    started = time.perf_counter()
+    together = []
+    try:
+        with ExitStack() as stack:
+            for r in records:
+                artifacts = settings.job_dir(r.id) / "artifacts"
+                clean_stale_attempts(artifacts)
+                if r is not records[0]:  # the first job's log is open already
+                    stack.enter_context(job_log(settings.job_dir(r.id) / "job.log"))
+                beat = stack.enter_context(Heartbeat(r.id, owner, db, settings.lease_s))
+                observer = StoreProgressObserver(r.id, db, owner=owner,
+                                                 lease_s=settings.lease_s, lost=beat.lost,
+                                                 shutdown=SHUTDOWN)
+                together.append(Together(_localised(r.id, r.spec, artifacts), artifacts,
+                                         [observer], recording_id=r.id,
+                                         checkpoint=artifacts.parent / "checkpoint.pt"))
+            log.info("job %s: a batch of %d (%s)", ids[0], len(ids),
+                     ", ".join(i[:8] for i in ids))
+            outcomes = run_jobs_together(together, record=True,
+                                         checkpoint_every=settings.checkpoint_steps,
+                                         checkpoint_s=settings.checkpoint_s,
+                                         checkpoint_now=SHUTDOWN, fallback=False)
+    except BaseException as exc:
+        for r in records:
+            if store.release(r.id, owner, db):
+                app.send_task(TASK_NAME, args=[r.id], kwargs={"alone": True}, queue=r.queue)
+        log.warning("job %s: the batch stopped (%s: %s); its jobs were queued again to run "
+                    "alone", ids[0], type(exc).__name__, exc)
+        if isinstance(exc, JobCancelled | HandBack | LeaseLost | SoftTimeLimitExceeded):
+            return "handed-back"
+        if isinstance(exc, Exception):
+            return "requeued"
+        raise
+    status = "failed"
+    for r, t, outcome in zip(records, together, outcomes, strict=True):
+        if isinstance(outcome, BaseException):
+            message = str(outcome) if isinstance(outcome, InkmotionError) else (
+                f"Internal error {type(outcome).__name__}: {outcome} (see `inkmotion jobs "
+                f"logs {r.id}`).")
+            log.error("job %s failed: %s", r.id, message)
+            store.mark_failed(r.id, message, db)
+            continue
+        (t.checkpoint or Path()).unlink(missing_ok=True)
+        done = with_db_retry(store.mark_succeeded, r.id, str(t.out_dir), db,
+                             metrics=outcome.get("metrics"), owner=owner)
+        if r.id == ids[0] and done:
+            status = "succeeded"
+    log.info("batch of %d finished in %.1f s", len(ids), time.perf_counter() - started)
+    return status
+
+
+def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
+             beat: Heartbeat, settings: Any) -> dict:
+    from inkmotion.jobs.shell import run_job
+
+    spec = _localised(job_id, spec_dict, artifacts)
     observer = StoreProgressObserver(job_id, db, owner=owner, lease_s=settings.lease_s,
                                      lost=beat.lost, shutdown=SHUTDOWN)
     checkpoint = artifacts.parent / "checkpoint.pt"  # in the job's storage, not the staging

@@ -63,11 +63,14 @@ def _environment(values: dict[str, str]) -> Iterator[None]:
 
 
 def bench_queue(jobs: int = 200, workers: int = 4, steps: int = 5, size: int = 96, *,
-                timeout_s: float = 1800.0) -> dict[str, float]:
+                timeout_s: float = 1800.0, concurrency: int = 1,
+                threads: int | None = None) -> dict[str, float]:
     """Queue ``jobs`` fit jobs (``steps`` steps, ``size`` px) on ``workers`` local workers,
     wait up to ``timeout_s`` seconds for them, and return the figures of the module
-    docstring. Raises :class:`~inkmotion.errors.ServiceError` when ``redis-server`` is
-    not installed."""
+    docstring; ``concurrency`` > 1: each worker a prefork pool of that many slots (the
+    thread policy of :mod:`inkmotion.devices` for them); ``threads``: torch threads per
+    job (INKMOTION_THREADS; default: the pool's). Raises
+    :class:`~inkmotion.errors.ServiceError` when ``redis-server`` is not installed."""
     from inkmotion import store
     from inkmotion.jobs.spec import JobSpec
     from inkmotion.settings import load_settings
@@ -85,11 +88,12 @@ def bench_queue(jobs: int = 200, workers: int = 4, steps: int = 5, size: int = 9
         redis = start_redis(tmp / "redis")
         env = {"INKMOTION_DATA_DIR": str(data),
                "INKMOTION_DB_URL": f"sqlite:///{data / 'jobs.sqlite3'}",
-               "INKMOTION_BROKER_URL": redis.url}
+               "INKMOTION_BROKER_URL": redis.url,
+               **({"INKMOTION_THREADS": str(threads)} if threads else {})}
         with _environment(env):
             settings = load_settings()
             store.get_engine(settings.db_url)  # create the schema once, before the workers
-            pool = WorkerPool(env, tmp / "logs")
+            pool = WorkerPool(env, tmp / "logs", concurrency=concurrency)
             pool.ensure(tuple(f"w{i + 1}" for i in range(workers)))
             specs = [JobSpec("fit", {"drawing": f"text:{WORDS[i % len(WORDS)]}"}, device="cpu",
                              params={"steps": steps, "size": size}) for i in range(jobs)]

@@ -20,6 +20,7 @@ TARGETS: dict[str, tuple[float, str]] = {
     "recording_ratio": (1.1, "≤"),
     "tag_300_steps_s": (30.0, "≤"),  # the goal on a CUDA GPU
     "queue_lost": (0, "≤"),
+    "pair_over_alone": (1.3, "≤"),
     "queue_completed_twice": (0, "≤"),
 }
 
@@ -72,6 +73,11 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
 
         return bench_gallery()
 
+    def throughput() -> dict:
+        from inkmotion.benchmarks.throughput import bench_throughput
+
+        return bench_throughput(device=device)
+
     def tsp() -> dict:
         from inkmotion.benchmarks.tsp import bench_tsp, format_table
 
@@ -81,7 +87,8 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
 
     return {"kinematics": kinematics, "raster": raster, "spray": spray, "fit": fit,
             "recording": recording,
-            "queue": queue, "generation": generation, "gallery": gallery, "tsp": tsp}
+            "queue": queue, "generation": generation, "gallery": gallery, "tsp": tsp,
+            "throughput": throughput}
 
 
 def _on(bench: Callable[..., dict], device: str) -> dict:

@@ -70,8 +70,10 @@ def bench_cmd(
         "--only",
         help="Run only these: kinematics, raster, spray, fit, recording (the default set), "
              "queue (opt-in: starts a local redis-server and 2 workers), generation "
-             "(opt-in: CLIP tag and abstract seconds per step) or gallery (opt-in: build "
-             "the gallery of 100 jobs, rebuild it after one more).")] = None,
+             "(opt-in: CLIP tag and abstract seconds per step), gallery (opt-in: build "
+             "the gallery of 100 jobs, rebuild it after one more) or throughput (opt-in, "
+             "minutes: default fits per minute for 1, 2, 4 jobs side by side and "
+             "batches of 1, 4, 16).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
         help="Input of the fit benchmark (default: the development tag 49867.json "
              "when it sits beside the repository, else text:inkmotion).")

@@ -24,13 +24,16 @@ def worker_cmd(
     loglevel: Annotated[str, typer.Option("--loglevel", "-l", help="Celery log level.")] =
     "info",
     pool: Annotated[str, typer.Option(help="Celery pool: prefork or solo.")] = "prefork",
+    batch: Annotated[int, typer.Option(
+        "--batch", "-b", min=1, help="Fit jobs a slot takes from its queue at once and "
+        "optimises as one batch when they are compatible (same parameters).")] = 1,
     hostname: Annotated[Optional[str], typer.Option(  # noqa: UP045 - typer needs Optional
         "--hostname", "-n", help="Worker node name, e.g. gpu1@%h.")] = None,
 ) -> None:
     """Start a Celery worker for queued jobs (stop it with Ctrl-C: jobs in hand requeue).
 
     Examples: `inkmotion worker` (CPU, every queue); on a GPU machine
-    `inkmotion worker -Q optimise -c 1`.
+    `inkmotion worker -Q optimise -c 1 --batch 16` (up to 16 fits in one optimisation).
     """
     from inkmotion.settings import load_settings
     from inkmotion.store import get_engine
@@ -51,6 +54,19 @@ def worker_cmd(
         get_engine(settings.db_url)  # create or upgrade the schema once, before forking
     except InkmotionError as exc:
         fail(exc)
+    import os
+
+    from inkmotion.devices import available_cores, share_cores
+    from inkmotion.workers.tasks import BATCH_ENV
+
+    slots = 1 if pool == "solo" else concurrency
+    threads = share_cores(slots)  # the children inherit it: none fights another for cores
+    if batch != 1:
+        os.environ[BATCH_ENV] = str(batch)
+    batch = int(os.environ.get(BATCH_ENV, batch) or 1)
+    typer.echo(f"inkmotion worker: {slots} job slot(s) on {available_cores()} core(s), "
+               f"{threads} torch thread(s) per job (INKMOTION_THREADS overrides)"
+               + (f", up to {batch} fit jobs per batch" if batch > 1 else ""))
     argv = ["worker", f"--queues={','.join(wanted)}", f"--concurrency={concurrency}",
             f"--loglevel={loglevel}", f"--pool={pool}"]
     if hostname:

@@ -176,18 +176,17 @@ def default_jobs(n_items: int) -> int:
 
 
 def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # macOS, Windows
-        return os.cpu_count() or 1
+    from inkmotion.devices import available_cores
+
+    return available_cores()
 
 
 def worker_threads(jobs: int) -> int:
-    """torch threads per worker: max(1, cores // jobs), capped at a single job's default
-    (more threads make these small ops slower, see :mod:`inkmotion.devices`)."""
-    from inkmotion.devices import MAX_DEFAULT_THREADS
+    """torch threads per worker process: the thread policy of :mod:`inkmotion.devices` for
+    ``jobs`` jobs sharing the cores."""
+    from inkmotion.devices import threads_per_job
 
-    return max(1, min(MAX_DEFAULT_THREADS, _cores() // jobs))
+    return threads_per_job(jobs)
 
 
 # ----------------------------------------------------------------------------- one item
@@ -262,27 +261,56 @@ def _flatten(figures: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 def run_item(source: str, folder: str, spec: dict[str, Any]) -> dict[str, Any]:
     """Fit ``source`` into ``folder`` and measure it; never raises: a failure is a row with
     ``status: "failed"`` and its one-sentence ``error``. (Runs in a worker process.)"""
-    from inkmotion.jobs.shell import run_job
+    return run_items([(source, folder, spec)])[0]
+
+
+def run_items(tasks: list[tuple[str, str, dict[str, Any]]]) -> list[dict[str, Any]]:
+    """:func:`run_item` of several items fitted as one batched optimisation
+    (:func:`inkmotion.jobs.shell.run_jobs_together`; one item: its own fit); a row each."""
+    from inkmotion.jobs.shell import Together, run_job, run_jobs_together
     from inkmotion.jobs.spec import JobSpec
 
-    row: dict[str, Any] = {"item": Path(folder).name, "source": source, "status": "ok"}
     started = time.perf_counter()
-    try:
-        job = JobSpec.from_dict({**spec, "inputs": {"drawing": source}})
-        report = run_job(job, folder)
-        for key in ("moves", "chamfer_mean_px", "chamfer_max_px", "t_end_ratio",
-                    "t_end_ratio_multi", "steps", "fit_s", "wall_s"):
-            row[key] = report.get(key)
-        row.update(quality_figures(Path(folder)))
-    except InkmotionError as exc:
-        return {**row, "status": "failed", "error": str(exc),
+    rows = [{"item": Path(folder).name, "source": source, "status": "ok"}
+            for source, folder, _ in tasks]
+    outcomes: list[Any] = [None] * len(tasks)
+    specs: list[Any] = [None] * len(tasks)
+    for i, (source, _, spec) in enumerate(tasks):
+        try:
+            specs[i] = JobSpec.from_dict({**spec, "inputs": {"drawing": source}})
+        except Exception as exc:  # noqa: BLE001 - reported in the item's row
+            outcomes[i] = exc
+    ready = [i for i in range(len(tasks)) if outcomes[i] is None]
+    if len(ready) == 1:
+        i = ready[0]
+        try:
+            outcomes[i] = run_job(specs[i], tasks[i][1])
+        except Exception as exc:  # noqa: BLE001 - reported in the item's row
+            outcomes[i] = exc
+    elif ready:
+        done = run_jobs_together([Together(specs[i], Path(tasks[i][1])) for i in ready])
+        for i, outcome in zip(ready, done, strict=True):
+            outcomes[i] = outcome
+    return [_row(row, Path(task[1]), outcome, started)
+            for row, task, outcome in zip(rows, tasks, outcomes, strict=True)]
+
+
+def _row(row: dict[str, Any], folder: Path, outcome: Any, started: float) -> dict[str, Any]:
+    """An item's row from its fit's report (or the exception it failed with)."""
+    if isinstance(outcome, InkmotionError):
+        return {**row, "status": "failed", "error": str(outcome),
                 "wall_s": round(time.perf_counter() - started, 3)}
-    except Exception as exc:  # a bug, not the user's input: still one row, named as such
+    if isinstance(outcome, BaseException):  # a bug, not the user's input: still one row
         return {**row, "status": "failed",
-                "error": f"internal error ({type(exc).__name__}: {exc}); please report it.",
-                "wall_s": round(time.perf_counter() - started, 3)}
+                "error": f"internal error ({type(outcome).__name__}: {outcome}); please "
+                         "report it.", "wall_s": round(time.perf_counter() - started, 3)}
+    report = outcome
+    for key in ("moves", "chamfer_mean_px", "chamfer_max_px", "t_end_ratio",
+                "t_end_ratio_multi", "steps", "fit_s", "wall_s", "batch"):
+        row[key] = report.get(key)
     try:
-        row.update(_flatten(motion_figures(Path(folder), report)))
+        row.update(quality_figures(folder))
+        row.update(_flatten(motion_figures(folder, report)))
     except Exception as exc:  # the fit stands; its motion figures are missing, and say so
         row["motion_error"] = f"{type(exc).__name__}: {exc}"
     return row
@@ -299,10 +327,13 @@ def _init_worker(threads: int) -> None:
 def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
                   steps: int | None = None, size: int | None = None,
                   params: dict[str, Any] | None = None, console: Any = None,
-                  device: str = "cpu", seed: int = 0) -> dict:
+                  device: str = "cpu", seed: int = 0, batch: int = 1) -> dict:
     """Fit every input into ``out/<item>/`` and write summary.{json,csv,md,html} in ``out``;
     print the aggregate table on ``console`` (a rich Console; None: stdout). Returns the
     summary (``items``, ``aggregate``, ``columns``, ``settings``).
+
+    ``batch`` > 1: each worker fits up to that many items as one batched optimisation
+    (:func:`run_items`), the batches taking the items in order.
 
     Raises :class:`~inkmotion.errors.InkmotionError` for a bad call (no inputs, an empty
     folder, an invalid parameter) before anything runs; a failing item is a row instead.
@@ -322,15 +353,18 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     jobs = default_jobs(len(sources)) if jobs is None else jobs
     if jobs < 1:
         raise SpecError(f"--jobs {jobs} must be at least 1.")
-    jobs = min(jobs, len(sources))
+    if batch < 1:
+        raise SpecError(f"--batch {batch} must be at least 1.")
+    jobs = min(jobs, math.ceil(len(sources) / batch))
     threads = worker_threads(jobs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     tasks = [(s, str(out / n), spec.to_dict()) for s, n in zip(sources, names, strict=True)]
-    rows = _run_all(tasks, jobs, threads, console)
+    rows = _run_all(tasks, jobs, threads, console, batch)
     summary = summarise(rows, wall_s=time.perf_counter() - started)
-    summary["settings"] = {"inputs": list(inputs), "jobs": jobs, "threads_per_job": threads,
+    summary["settings"] = {"inputs": list(inputs), "jobs": jobs, "batch": batch,
+                           "threads_per_job": threads,
                            "spec": spec.to_dict() | {"inputs": {}}}
     write_summary(out, summary)
     print_aggregate(summary, console)
@@ -338,9 +372,9 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
 
 
 def _run_all(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
-             console: Any) -> list[dict[str, Any]]:
-    """Run the items (in ``jobs`` spawned workers, or here when jobs == 1) with a progress
-    bar; rows in the order of ``tasks``."""
+             console: Any, batch: int = 1) -> list[dict[str, Any]]:
+    """Run the items (in ``jobs`` spawned workers, or here when jobs == 1; ``batch`` items
+    at a time per worker) with a progress bar; rows in the order of ``tasks``."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     rows: list[dict[str, Any] | None] = [None] * len(tasks)
@@ -354,33 +388,62 @@ def _run_all(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
             mark = "ok" if row["status"] == "ok" else "FAILED"
             progress.update(bar, advance=1, description=f"{tasks[i][0]}: {mark}")
 
+        chunks = balanced_chunks([t[0] for t in tasks], jobs, batch)
         if jobs == 1:
-            for i, task in enumerate(tasks):
-                done(i, run_item(*task))
+            for chunk in chunks:
+                for i, row in zip(chunk, run_items([tasks[i] for i in chunk]), strict=True):
+                    done(i, row)
         else:
-            _run_parallel(tasks, jobs, threads, done)
+            _run_parallel(tasks, chunks, jobs, threads, done)
     assert all(r is not None for r in rows)
     return rows  # type: ignore[return-value]
 
 
-def _run_parallel(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
-                  done: Callable[[int, dict[str, Any]], None]) -> None:
+def balanced_chunks(sources: list[str], jobs: int, batch: int) -> list[list[int]]:
+    """The items' indices in batches of at most ``batch`` for ``jobs`` workers: as many
+    batches as fill every worker evenly (a multiple of ``jobs``), the items dealt out
+    largest first (by the input's size in bytes, text:WORD by its length) in a snake
+    order, so every batch carries a similar share of the work and no worker idles at the
+    end."""
+    if batch <= 1:
+        return [[i] for i in range(len(sources))]
+    count = max(1, jobs) * math.ceil(len(sources) / (max(1, jobs) * batch))
+    count = min(count, len(sources))
+
+    def weight(source: str) -> int:
+        try:
+            return Path(source).stat().st_size
+        except OSError:
+            return len(source)
+
+    order = sorted(range(len(sources)), key=lambda i: -weight(sources[i]))
+    chunks: list[list[int]] = [[] for _ in range(count)]
+    for rank, i in enumerate(order):
+        lap, at = divmod(rank, count)
+        chunks[at if lap % 2 == 0 else count - 1 - at].append(i)
+    return [sorted(c) for c in chunks if c]
+
+
+def _run_parallel(tasks: list[tuple[str, str, dict]], chunks: list[list[int]], jobs: int,
+                  threads: int, done: Callable[[int, dict[str, Any]], None]) -> None:
     import multiprocessing
     from concurrent.futures.process import BrokenProcessPool
 
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(jobs, mp_context=context, initializer=_init_worker,
                              initargs=(threads,)) as pool:
-        futures = {pool.submit(run_item, *task): i for i, task in enumerate(tasks)}
+        futures = {pool.submit(run_items, [tasks[i] for i in chunk]): chunk for chunk in chunks}
         for future in as_completed(futures):
-            i = futures[future]
+            chunk = futures[future]
             try:
-                row = future.result()
+                rows = future.result()
             except BrokenProcessPool:
-                row = {"item": Path(tasks[i][1]).name, "source": tasks[i][0], "status": "failed",
-                       "error": "its worker process died (out of memory or killed); run "
-                                "it alone with --jobs 1 to see why."}
-            done(i, row)
+                rows = [{"item": Path(tasks[i][1]).name, "source": tasks[i][0],
+                         "status": "failed", "error": "its worker process died (out of "
+                         "memory or killed); run it alone with --jobs 1 to see why."}
+                        for i in chunk]
+            for i, row in zip(chunk, rows, strict=True):
+                done(i, row)
 
 
 # ----------------------------------------------------------------------------- summary

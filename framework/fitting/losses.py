@@ -49,3 +49,45 @@ def canvas_cost(points: torch.Tensor, width: float, height: float) -> torch.Tens
     out = (torch.relu(-x) ** 2 + torch.relu(x - width) ** 2
            + torch.relu(-y) ** 2 + torch.relu(y - height) ** 2)
     return out.mean()
+
+
+def smoothing_costs(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float, layout: GridLayout,
+                    over: str, path_item: torch.Tensor, items: int) -> torch.Tensor:
+    """:func:`smoothing_cost` of each of ``items`` drawings fitted together (items,): path p
+    belongs to drawing ``path_item[p]``, and each drawing's cost is its own paths' (a batched
+    fit: the same value as the drawing's own fit, up to float round-off)."""
+    m = layout.moves.to(t_end.dtype)  # (P,)
+    path = layout.move_path  # (M,)
+    move_item = path_item[path]  # (M,)
+    used = (~layout.first).to(t_end.dtype)  # (M,)
+    zeros = t_end.new_zeros(items)
+    if over == "pooled":
+        n_used = zeros.index_add(0, move_item, used).clamp(min=1.0)
+        mean = zeros.index_add(0, move_item, batch.delta_t * used) / n_used
+        dev = (batch.delta_t - mean[move_item]) * used
+        var = zeros.index_add(0, move_item, dev * dev) / n_used
+        return (zeros.index_add(0, path_item, t_end) / zeros.index_add(0, path_item, m)
+                + w_sigma * var)
+    denom = (m - 1.0).clamp(min=1.0)  # (P,)
+    mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
+    dev = (batch.delta_t - mean[path]) * used
+    var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom  # (P,)
+    paths = zeros.index_add(0, path_item, torch.ones_like(m))
+    if over == "drawing":
+        return (zeros.index_add(0, path_item, t_end) / zeros.index_add(0, path_item, m)
+                + w_sigma * zeros.index_add(0, path_item, var) / paths)
+    assert over == "path", over
+    return zeros.index_add(0, path_item, t_end / m + w_sigma * var) / paths
+
+
+def canvas_costs(points: torch.Tensor, point_item: torch.Tensor, sizes: torch.Tensor,
+                 items: int) -> torch.Tensor:
+    """:func:`canvas_cost` of each of ``items`` drawings (items,): target i belongs to
+    drawing ``point_item[i]``, whose canvas is ``sizes[point_item[i]]`` = (W, H)."""
+    limit = sizes.to(points.dtype)[point_item]  # (N, 2)
+    x, y = points[:, 0], points[:, 1]
+    out = (torch.relu(-x) ** 2 + torch.relu(x - limit[:, 0]) ** 2
+           + torch.relu(-y) ** 2 + torch.relu(y - limit[:, 1]) ** 2)
+    zeros = out.new_zeros(items)
+    return zeros.index_add(0, point_item, out) / zeros.index_add(0, point_item,
+                                                                   torch.ones_like(out))

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
@@ -93,22 +94,7 @@ class Objective:
     def __call__(self, batch: PlanBatch, step: int | None = None) -> Evaluation:
         """One forward pass; ``step`` is the optimiser's (1-based) step, None for an
         evaluation outside the loop (terms with state, the trace term, keep theirs)."""
-        self._calls += 1
-        if self.check_every and self._calls % self.check_every == 0:
-            self.replan_if_needed()
-        layout = self._layout(batch)
-        times, dt = uniform_times(batch, layout)
-        if layout.window is None and self._static(batch):
-            layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
-                                               max_ac=AC_MAX)
-        t_end = times[layout.block_end - 1]  # (P,) the last sample is T_end
-        kin, overflow = evaluate_kinematics(batch, times, layout)
-        if overflow is not None:
-            self._window_overflow = overflow if self._window_overflow is None \
-                else self._window_overflow | overflow
-        # (S, 4, D): a 3-D plan's radius coordinate goes to the renderer, which ignores the
-        # widths then (the Renderer protocol)
-        segments = hermite_segments(kin.positions, kin.velocities, layout, dt)
+        layout, t_end, kin, segments = self._motion(batch)
         rendered = self._draw(segments, batch.widths[layout.segment_path])
         terms: dict[str, torch.Tensor] = {}
         image = rendered.new_zeros(())
@@ -124,6 +110,26 @@ class Objective:
             terms["trace"] = self.trace(segments, layout, step)
             total = total + self.p.w_trace * terms["trace"]
         return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities)
+
+    def _motion(self, batch: PlanBatch) -> tuple[GridLayout, torch.Tensor, Any, torch.Tensor]:
+        """The forward pass up to the image: the grid's layout, T_end (P,), the kinematics
+        and the Hermite Bézier segments (S, 4, D) (a 3-D plan's radius included: the
+        renderer then ignores the widths, the Renderer protocol)."""
+        self._calls += 1
+        if self.check_every and self._calls % self.check_every == 0:
+            self.replan_if_needed()
+        layout = self._layout(batch)
+        times, dt = uniform_times(batch, layout)
+        if layout.window is None and self._static(batch):
+            layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
+                                               max_ac=AC_MAX)
+        t_end = times[layout.block_end - 1]  # (P,) the last sample is T_end
+        kin, overflow = evaluate_kinematics(batch, times, layout)
+        if overflow is not None:
+            self._window_overflow = overflow if self._window_overflow is None \
+                else self._window_overflow | overflow
+        segments = hermite_segments(kin.positions, kin.velocities, layout, dt)
+        return layout, t_end, kin, segments
 
     def state(self) -> dict:
         """The state of the objective's terms that a resumed fit needs (a checkpoint)."""
@@ -162,13 +168,18 @@ class Objective:
             self._window_overflow = None
         return self.layout
 
-    def _draw(self, segments: torch.Tensor, widths: torch.Tensor) -> torch.Tensor:
-        """Render (H, W) with the renderer's per-fit session when it offers one."""
+    def _draw(self, segments: torch.Tensor, widths: torch.Tensor,
+              canvases: Any = None) -> torch.Tensor:
+        """Render (H, W) with the renderer's per-fit session when it offers one; several
+        drawings (count, H, W) with ``canvases`` (a renderer that ``renders_canvases``)."""
         if self._render is None:
             session = getattr(self.renderer, "session", None)
             self._render = self.renderer if session is None else \
                 session(segments.device, static=self.static)
         try:
+            if canvases is not None:
+                return self._render(segments, widths, self.height, self.width,
+                                    canvases=canvases)
             return self._render(segments, widths, self.height, self.width)
         except ValueError as exc:  # bad shapes; values are not checked (no device read)
             raise InkmotionError(f"The renderer refused the trajectory ({exc}); lower the "

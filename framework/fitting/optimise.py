@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
@@ -165,6 +166,68 @@ class _StepStates:
         return state
 
 
+class _Leaves:
+    """One fit's parameters as the optimiser holds them: the leaves (a 3-D plan's targets
+    as x, y (N, 2) and r (N, 1), module docstring), their Adam, and the plan they make."""
+
+    def __init__(self, plans: list[MotorPlan], settings: OptimiserSettings) -> None:
+        self.src = src = PlanBatch.from_plans([p.detached() for p in plans])
+        self.three = three = src.points.shape[1] == 3  # radius coordinate (2.5D)
+        leaves = {k: getattr(src, k).clone().requires_grad_(True)
+                  for k in ("points", "delta_t", "delta", "ac")}
+        if three:
+            del leaves["points"]
+            leaves["xy"] = src.points[:, :2].clone().requires_grad_(True)  # (N, 2)
+            leaves["r"] = src.points[:, 2:].clone().requires_grad_(True)  # (N, 1)
+        self.leaves = leaves
+        groups = ([(leaves["xy"], settings.lr_points), (leaves["r"], settings.lr_radius)]
+                  if three else [(leaves["points"], settings.lr_points)])
+        groups += [(leaves["delta_t"], settings.lr_delta_t), (leaves["delta"], settings.lr_delta)]
+        if settings.lr_ac > 0:
+            groups.append((leaves["ac"], settings.lr_ac))
+        self.adam = Adam(groups)
+
+    def load(self, resume: dict) -> None:
+        """Continue from a saved ``state`` (its leaves and Adam moments)."""
+        with torch.no_grad():
+            for name, value in resume["leaves"].items():
+                self.leaves[name].copy_(value.to(self.leaves[name].device))
+        self.adam.load_state(resume["adam"])
+
+    def points(self) -> torch.Tensor:
+        """The targets (N, D); for 3-D plans [xy | r] (N, 3), a new graph from the leaves."""
+        leaves = self.leaves
+        return torch.cat((leaves["xy"], leaves["r"]), 1) if self.three else leaves["points"]
+
+    def assemble(self) -> PlanBatch:
+        """The batch of the current leaves."""
+        src = self.src
+        return PlanBatch(self.points(), self.leaves["delta_t"], self.leaves["delta"],
+                         self.leaves["ac"], src.T, src.moves, src.widths)
+
+    def clamp(self, settings: OptimiserSettings) -> None:
+        """The clamps of Δt, δ, Ac (and a 3-D plan's radius), in place."""
+        self.leaves["delta_t"].clamp_(*DELTA_T_RANGE)
+        self.leaves["delta"].clamp_(*DELTA_RANGE)
+        self.leaves["ac"].clamp_(*AC_RANGE)
+        if self.three:
+            self.leaves["r"].clamp_(*settings.radius_range)
+
+    def plans(self) -> list[MotorPlan]:
+        """Detached copies of the current plans."""
+        src = self.src
+        with torch.no_grad():
+            points = self.points()
+        return PlanBatch(*(t.detach().clone() for t in (
+            points, self.leaves["delta_t"], self.leaves["delta"], self.leaves["ac"], src.T)),
+            src.moves, src.widths).to_plans()
+
+    def state(self) -> dict:
+        """Copies of the leaves and the Adam moments (``optimise``'s ``resume`` takes it)."""
+        return {"leaves": {k: v.detach().clone() for k, v in self.leaves.items()},
+                "adam": self.adam.state()}
+
+
 def optimise(
     plans: list[MotorPlan],
     objective: Objective,
@@ -184,35 +247,12 @@ def optimise(
     (the same arithmetic as an uninterrupted run).
     """
     start = time.perf_counter()
-    src = PlanBatch.from_plans([p.detached() for p in plans])
-    three = src.points.shape[1] == 3  # radius coordinate (2.5D): its own leaf
-    leaves = {k: getattr(src, k).clone().requires_grad_(True)
-              for k in ("points", "delta_t", "delta", "ac")}
-    if three:
-        del leaves["points"]
-        leaves["xy"] = src.points[:, :2].clone().requires_grad_(True)  # (N, 2)
-        leaves["r"] = src.points[:, 2:].clone().requires_grad_(True)  # (N, 1)
-
-    def assemble() -> PlanBatch:
-        """The batch of the current leaves; for 3-D plans points = [xy | r] (N, 3)."""
-        points = torch.cat((leaves["xy"], leaves["r"]), 1) if three else leaves["points"]
-        return PlanBatch(points, leaves["delta_t"], leaves["delta"], leaves["ac"], src.T,
-                         src.moves, src.widths)
-
-    groups = ([(leaves["xy"], settings.lr_points), (leaves["r"], settings.lr_radius)] if three
-              else [(leaves["points"], settings.lr_points)])
-    groups += [(leaves["delta_t"], settings.lr_delta_t), (leaves["delta"], settings.lr_delta)]
-    if settings.lr_ac > 0:
-        groups.append((leaves["ac"], settings.lr_ac))
-    optimiser = Adam(groups)
+    fit = _Leaves(plans, settings)
     first_step = 1
     if resume is not None:
-        with torch.no_grad():
-            for name, value in resume["leaves"].items():
-                leaves[name].copy_(value.to(leaves[name].device))
-        optimiser.load_state(resume["adam"])
+        fit.load(resume)
         first_step = int(resume["step"]) + 1
-    batch = assemble()
+    batch = fit.assemble()
     on_step = getattr(observers, "on_step", None)
     states = _StepStates(observers, plans, settings.steps)
 
@@ -226,21 +266,17 @@ def optimise(
         initial_terms, initial_t_end = resume["initial_terms"], resume["initial_t_end"]
     if resume is not None and resume.get("objective"):
         objective.load_state(resume["objective"])
-    finite = torch.ones((), dtype=torch.bool, device=src.points.device)  # all steps so far
+    finite = torch.ones((), dtype=torch.bool, device=fit.src.points.device)  # all steps so far
     for step in range(first_step, settings.steps + 1):
-        optimiser.zero_grad()
-        if three:
-            batch = assemble()  # a new graph from the updated leaves
+        fit.adam.zero_grad()
+        if fit.three:
+            batch = fit.assemble()  # a new graph from the updated leaves
         ev = objective(batch, step)
         ev.total.backward()
-        optimiser.step(cosine(settings.schedule_start + step - 1,
-                              settings.schedule_total or settings.steps, settings.lr_final))
+        fit.adam.step(cosine(settings.schedule_start + step - 1,
+                             settings.schedule_total or settings.steps, settings.lr_final))
         with torch.no_grad():
-            leaves["delta_t"].clamp_(*DELTA_T_RANGE)
-            leaves["delta"].clamp_(*DELTA_RANGE)
-            leaves["ac"].clamp_(*AC_RANGE)
-            if three:
-                leaves["r"].clamp_(*settings.radius_range)
+            fit.clamp(settings)
             finite = finite & torch.isfinite(ev.total.detach())
         if step % settings.check_every == 0 and not bool(finite):
             raise _not_finite()
@@ -248,21 +284,16 @@ def optimise(
             on_step(states(step, ev, batch))
         if checkpoint is not None and checkpoint.due(step):  # type: ignore[attr-defined]
             checkpoint.save(step, {  # type: ignore[attr-defined]
-                "leaves": {k: v.detach().clone() for k, v in leaves.items()},
-                "adam": optimiser.state(), "initial_terms": initial_terms,
+                **fit.state(), "initial_terms": initial_terms,
                 "initial_t_end": initial_t_end, "objective": objective.state()})
 
     with torch.no_grad():
-        batch = assemble()
-        last = objective(batch)
+        last = objective(fit.assemble())
     final_terms = scalars(_terms(last))
     if not bool(finite) or not math.isfinite(final_terms["total"]):
         raise _not_finite()
-    result_plans = PlanBatch(*(t.detach().clone() for t in (
-        batch.points, batch.delta_t, batch.delta, batch.ac, batch.T)), src.moves,
-        src.widths).to_plans()
     return FitResult(
-        plans=result_plans,
+        plans=fit.plans(),
         initial_terms=initial_terms,
         final_terms=final_terms,
         initial_t_end=initial_t_end,
@@ -270,6 +301,175 @@ def optimise(
         rendered=last.rendered.detach(),
         wall_s=time.perf_counter() - start,
         steps=settings.steps,
-        state={"leaves": {k: v.detach().clone() for k, v in leaves.items()},
-               "adam": optimiser.state()},
+        state=fit.state(),
     )
+
+
+@dataclass
+class Request:
+    """One drawing's stage in a batched fit (:func:`optimise_together`): what
+    :func:`optimise` takes for it alone."""
+
+    plans: list[MotorPlan]
+    settings: OptimiserSettings
+    observers: object = None
+    resume: dict | None = None
+    checkpoint: object = None
+
+
+def _adam_together(fits: list[_Leaves], factor: float) -> None:
+    """One Adam update of every fit, a parameter group of all the fits per call (torch's
+    multi-tensor Adam: the same elementwise arithmetic as each fit's own update)."""
+    from torch.optim.adam import adam
+
+    first = fits[0].adam
+    with torch.no_grad():
+        for g, lr in enumerate(first.lrs):
+            held = [(f.adam, f.adam.params[g]) for f in fits if f.adam.params[g].grad is not None]
+            if not held:
+                continue
+            adam([p for _, p in held], [p.grad for _, p in held],
+                 [a.exp_avg[g] for a, _ in held], [a.exp_avg_sq[g] for a, _ in held], [],
+                 [a.steps[g] for a, _ in held], foreach=True, amsgrad=False, beta1=0.9,
+                 beta2=0.999, lr=lr * factor, weight_decay=0.0, eps=1e-8, maximize=False)
+
+
+def _clamp_together(fits: list[_Leaves], settings: OptimiserSettings) -> None:
+    """:meth:`_Leaves.clamp` of every fit, one multi-tensor op per bound."""
+    bounds = [("delta_t", DELTA_T_RANGE), ("delta", DELTA_RANGE), ("ac", AC_RANGE)]
+    if fits[0].three:
+        bounds.append(("r", settings.radius_range))
+    for name, (lo, hi) in bounds:
+        tensors = [f.leaves[name] for f in fits]
+        torch._foreach_clamp_min_(tensors, lo)
+        torch._foreach_clamp_max_(tensors, hi)
+
+
+def optimise_together(requests: list[Request], objective: Any) -> list[FitResult]:
+    """:func:`optimise` of several drawings at once, one batched evaluation per step: the
+    union of their plans through ``objective`` (a
+    :class:`~inkmotion.fitting.batch_objective.BatchObjective` of their objectives, in the
+    requests' order), each drawing with its own leaves, Adam moments, observers and
+    checkpoint. Every request has the same step schedule (and resumes from the same step).
+    Each result is what the drawing's own :func:`optimise` gives, up to float round-off
+    (module :mod:`~inkmotion.fitting.batch_objective`). A NaN in any drawing raises."""
+    start = time.perf_counter()
+    settings = requests[0].settings
+    first_step = 1 + (int(requests[0].resume["step"]) if requests[0].resume else 0)
+    fits = [_Leaves(r.plans, r.settings) for r in requests]
+    for fit, r in zip(fits, requests, strict=True):
+        if r.resume is not None:
+            fit.load(r.resume)
+    src = [f.src for f in fits]
+    union_t, union_moves = torch.cat([s.T for s in src]), torch.cat([s.moves for s in src])
+    union_widths = torch.cat([s.widths for s in src])
+
+    def assemble() -> PlanBatch:
+        return PlanBatch(torch.cat([f.points() for f in fits]),
+                         torch.cat([f.leaves["delta_t"] for f in fits]),
+                         torch.cat([f.leaves["delta"] for f in fits]),
+                         torch.cat([f.leaves["ac"] for f in fits]), union_t, union_moves,
+                         union_widths)
+
+    views = _ItemViews(requests, objective)
+    with torch.no_grad():
+        first = objective(assemble())
+    initial = views.scalars(first)
+    if not all(math.isfinite(t["total"]) for t in initial):
+        raise _not_finite()
+    initial_t_end = views.t_end(first)
+    for b, r in enumerate(requests):
+        if r.resume is not None and "initial_terms" in r.resume:
+            initial[b], initial_t_end[b] = r.resume["initial_terms"], r.resume["initial_t_end"]
+    if all(r.resume is not None and r.resume.get("objective") for r in requests):
+        objective.load_item_states([r.resume["objective"] for r in requests])  # type: ignore
+    finite = torch.ones(len(requests), dtype=torch.bool, device=union_t.device)
+    for step in range(first_step, settings.steps + 1):
+        for fit in fits:
+            fit.adam.zero_grad()
+        batch = assemble()
+        ev = objective(batch, step)
+        ev.total.sum().backward()
+        _adam_together(fits, cosine(settings.schedule_start + step - 1,
+                                    settings.schedule_total or settings.steps,
+                                    settings.lr_final))
+        with torch.no_grad():
+            _clamp_together(fits, settings)
+            finite = finite & torch.isfinite(ev.total.detach())
+        if step % settings.check_every == 0 and not bool(finite.all()):
+            raise _not_finite()
+        views.observe(step, ev, batch)
+        for b, r in enumerate(requests):
+            if r.checkpoint is not None and r.checkpoint.due(step):  # type: ignore
+                r.checkpoint.save(step, {  # type: ignore[attr-defined]
+                    **fits[b].state(), "initial_terms": initial[b],
+                    "initial_t_end": initial_t_end[b],
+                    "objective": objective.item_states()[b]})
+
+    with torch.no_grad():
+        last = objective(assemble())
+    final = views.scalars(last)
+    if not bool(finite.all()) or not all(math.isfinite(t["total"]) for t in final):
+        raise _not_finite()
+    wall = time.perf_counter() - start
+    final_t_end = views.t_end(last)
+    return [FitResult(plans=fit.plans(), initial_terms=initial[b], final_terms=final[b],
+                      initial_t_end=initial_t_end[b], final_t_end=final_t_end[b],
+                      rendered=views.image(last, b), wall_s=wall, steps=settings.steps,
+                      state=fit.state())
+            for b, fit in enumerate(fits)]
+
+
+class _ItemViews:
+    """Each drawing's share of a batched evaluation: its terms, T_end, image and samples,
+    and its observers' step states."""
+
+    def __init__(self, requests: list[Request], objective: Any) -> None:
+        self.sizes = [(o.height, o.width) for o in objective.items]
+        paths = [len(r.plans) for r in requests]
+        self.path_ranges = _ranges(paths)
+        self.point_ranges = _ranges([sum(p.m + 1 for p in r.plans) for r in requests])
+        k = objective.p.samples_per_move
+        self.sample_ranges = _ranges([sum(k * p.m + 1 for p in r.plans) for r in requests])
+        self.requests = requests
+        self.states = [_StepStates(r.observers, r.plans, r.settings.steps)
+                       if getattr(r.observers, "on_step", None) is not None else None
+                       for r in requests]
+
+    def scalars(self, ev: Evaluation) -> list[dict[str, float]]:
+        """Each drawing's terms and total as floats (one read of each term)."""
+        columns = {k: v.tolist() for k, v in _terms(ev).items()}
+        return [{k: v[b] for k, v in columns.items()} for b in range(len(self.requests))]
+
+    def t_end(self, ev: Evaluation) -> list[list[float]]:
+        values = ev.t_end.tolist()
+        return [values[a:z] for a, z in self.path_ranges]
+
+    def image(self, ev: Evaluation, b: int) -> torch.Tensor:
+        h, w = self.sizes[b]
+        return ev.rendered[b, :h, :w].detach()
+
+    def observe(self, step: int, ev: Evaluation, batch: PlanBatch) -> None:
+        """Each drawing's observers see its own step state (built only for those that
+        observe; the heavy data only where they ask)."""
+        for b, states in enumerate(self.states):
+            if states is None:
+                continue
+            (pa, pz), (sa, sz), (ta, tz) = (self.path_ranges[b], self.sample_ranges[b],
+                                            self.point_ranges[b])
+            h, w = self.sizes[b]
+            mine = Evaluation(ev.total[b], {k: v[b] for k, v in ev.terms.items()},
+                              ev.t_end[pa:pz], ev.rendered[b, :h, :w], ev.positions[sa:sz],
+                              ev.velocities[sa:sz])
+            item_batch = PlanBatch(batch.points[ta:tz], batch.delta_t, batch.delta, batch.ac,
+                                   batch.T, batch.moves, batch.widths)
+            self.requests[b].observers.on_step(states(step, mine, item_batch))  # type: ignore
+
+
+def _ranges(counts: list[int]) -> list[tuple[int, int]]:
+    """[(start, end)] of consecutive blocks of ``counts``."""
+    out, at = [], 0
+    for n in counts:
+        out.append((at, at + n))
+        at += n
+    return out

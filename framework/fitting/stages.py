@@ -36,6 +36,7 @@ across the stages (a progress bar of the whole fit).
 
 from __future__ import annotations
 
+from collections.abc import Generator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -43,7 +44,7 @@ import numpy as np
 
 from inkmotion.events import StepState, wants
 from inkmotion.fitting.objective import Objective
-from inkmotion.fitting.optimise import FitResult, OptimiserSettings, optimise
+from inkmotion.fitting.optimise import FitResult, OptimiserSettings, Request, optimise
 from inkmotion.fitting.refine import (
     budget,
     growth_margin,
@@ -228,9 +229,76 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
     mode) receives the fit's state as it goes; when it already holds one of this job, the
     fit resumes from it: the same result as an uninterrupted run, bit for bit on the CPU.
     ``StagedFit.resumed_from_step`` says from where (0: from the start)."""
+    return fit_together_in_stages([StagedProblem(plans, objective, settings, strokes, refine,
+                                                 observers, checkpoints)])[0]
+
+
+@dataclass
+class StagedProblem:
+    """One drawing's staged fit, as :func:`fit_in_stages` takes it."""
+
+    plans: list[MotorPlan]
+    objective: Objective
+    settings: OptimiserSettings
+    strokes: list[np.ndarray]
+    refine: RefineSettings
+    observers: object = None
+    checkpoints: Any = None
+
+
+def fit_together_in_stages(problems: list[StagedProblem]) -> list[StagedFit]:
+    """:func:`fit_in_stages` of several drawings, their stages in lockstep: the stages that
+    share a step schedule run as one batched optimisation
+    (:func:`~inkmotion.fitting.optimise.optimise_together`) when their objectives can be
+    evaluated together (:func:`~inkmotion.fitting.batch_objective.can_batch`), each drawing
+    keeping its own plan edits, rollbacks, record and checkpoints; a drawing alone (or one
+    resumed mid-stage) runs its own :func:`~inkmotion.fitting.optimise.optimise`. Each result
+    is the drawing's own fit up to float round-off (bit for bit when it ran alone)."""
+    from inkmotion.fitting.batch_objective import BatchObjective, can_batch
+    from inkmotion.fitting.optimise import optimise_together
+
+    runs = [_stages(p.plans, float(max(p.objective.width, p.objective.height)), p.settings,
+                    p.strokes, p.refine, p.observers, p.checkpoints) for p in problems]
+    done: dict[int, StagedFit] = {}
+    pending: dict[int, Request] = {}
+
+    def advance(b: int, result: FitResult | None) -> None:
+        try:
+            pending[b] = runs[b].send(result)  # type: ignore[arg-type]
+        except StopIteration as stop:
+            done[b] = stop.value
+
+    for b in range(len(runs)):
+        advance(b, None)
+    while pending:
+        groups: dict[tuple, list[int]] = {}
+        for b, r in pending.items():
+            key = (r.settings.steps, r.settings.schedule_start, r.settings.schedule_total,
+                   int(r.resume["step"]) if r.resume else 0, len(r.plans[0].points[0]))
+            groups.setdefault(key, []).append(b)
+        for members in groups.values():
+            requests = [pending.pop(b) for b in members]
+            objectives = [problems[b].objective for b in members]
+            if len(members) > 1 and can_batch(objectives):
+                together = BatchObjective(objectives, [len(r.plans) for r in requests])
+                results = optimise_together(requests, together)
+            else:
+                results = [optimise(r.plans, o, r.settings, r.observers, resume=r.resume,
+                                    checkpoint=r.checkpoint)
+                           for r, o in zip(requests, objectives, strict=True)]
+            for b, result in zip(members, results, strict=True):
+                advance(b, result)
+    return [done[b] for b in range(len(runs))]
+
+
+def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
+            strokes: list[np.ndarray], refine: RefineSettings, observers: object,
+            checkpoints: Any) -> Generator[Request, FitResult, StagedFit]:
+    """One drawing's staged fit (module docstring) as a generator: it yields each stage's
+    optimisation as a :class:`~inkmotion.fitting.optimise.Request`, is sent the stage's
+    :class:`FitResult`, and returns the :class:`StagedFit`."""
     from inkmotion.fitting.quality import chamfer_of
 
-    size = float(max(objective.width, objective.height))
     rollback = refine.mode == "default" and refine.rollback
     if refine.mode == "auto":
         later = max(50, settings.steps // 4)
@@ -296,8 +364,7 @@ def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: Optimi
             go_on = {**carry, "step": 0}
         else:
             go_on = None
-        result = optimise(plans, objective, stage, _Offset(observers, done, total),
-                          resume=go_on, checkpoint=hook)
+        result = yield Request(plans, stage, _Offset(observers, done, total), go_on, hook)
         if first is None and initial is not None and initial[0] is not None:
             result.initial_terms, result.initial_t_end = initial  # as before the break
         first = first or result

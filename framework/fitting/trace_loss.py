@@ -41,7 +41,7 @@ gradient) is the plain geometric one.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -171,6 +171,21 @@ class TraceReference:
         return cls(put(pts), put(pst, torch.long), put(sa), put(sb), put(sst, torch.long),
                    kept, put(parc), put(sarc), put(lengths), float(unit))
 
+    @classmethod
+    def concat(cls, refs: list[TraceReference]) -> TraceReference:
+        """Several drawings' references as one (a batched fit): their strokes numbered on,
+        drawing after drawing; every drawing must have the same ``unit``."""
+        assert len({r.unit for r in refs}) == 1, "drawings of one batch share a canvas size"
+        offsets = np.cumsum([0] + [len(r.strokes) for r in refs[:-1]])
+        cat = torch.cat
+        return cls(cat([r.points for r in refs]),
+                   cat([r.point_stroke + int(o) for r, o in zip(refs, offsets, strict=True)]),
+                   cat([r.seg_a for r in refs]), cat([r.seg_b for r in refs]),
+                   cat([r.seg_stroke + int(o) for r, o in zip(refs, offsets, strict=True)]),
+                   tuple(s for r in refs for s in r.strokes),
+                   cat([r.point_arc for r in refs]), cat([r.seg_arc for r in refs]),
+                   cat([r.lengths for r in refs]), refs[0].unit)
+
     def ownership(self, initial_positions: list[np.ndarray],
                   own_within: float | None = None) -> torch.Tensor:
         """(n_strokes, P) bool: which paths may cover which stroke (module docstring), from
@@ -238,6 +253,64 @@ class TraceLoss:
         first, last = _group_ranges(stroke)
         self._seg_range = (torch.as_tensor(first, device=offsets.device),
                            torch.as_tensor(last, device=offsets.device))
+        self._union: _Union | None = None  # set by :meth:`union`
+
+    @classmethod
+    def union(cls, losses: list[TraceLoss], path_counts: list[int]) -> TraceLoss:
+        """The terms of several drawings fitted together (drawing b owns the next
+        ``path_counts[b]`` paths of the batch): one term whose call returns each drawing's
+        L_trace (B,), its strokes matched to its own paths only."""
+        first = losses[0]
+        ref = TraceReference.concat([t.ref for t in losses])
+        owners = np.zeros((sum(t.owners.shape[0] for t in losses), sum(path_counts)),
+                          dtype=bool)
+        row = col = 0
+        for t, paths in zip(losses, path_counts, strict=True):
+            assert t.owners.shape[1] == paths, (t.owners.shape, paths)
+            owners[row:row + t.owners.shape[0], col:col + paths] = t.owners
+            row, col = row + t.owners.shape[0], col + paths
+        joined = cls(ref, torch.as_tensor(owners), first.scale, first.refresh, first.reach)
+        device = ref.points.device
+        items = len(losses)
+        joined._union = _Union(
+            items=items,
+            path_item=torch.as_tensor(np.repeat(np.arange(items), path_counts), device=device),
+            point_item=torch.as_tensor(np.repeat(np.arange(items),
+                                                 [t.ref.points.shape[0] for t in losses]),
+                                       device=device),
+            points=[t.ref.points.shape[0] for t in losses],
+            segments=[t.ref.seg_a.shape[0] for t in losses])
+        return joined
+
+    def item_states(self) -> list[dict[str, torch.Tensor]]:
+        """A union's :meth:`state` split into each drawing's own (its own numbering)."""
+        u = self._union
+        assert u is not None, "item_states is for a union of terms"
+        if self._near is None:
+            return [{} for _ in range(u.items)]
+        chord, segment = self._near
+        out = []
+        k = s2 = j = 0
+        for b in range(u.items):
+            n_k, n_s2, n_j = u.points[b], u.samples[b], u.segments[b]
+            out.append({"chord": chord[k:k + n_k] - s2, "segment": segment[s2:s2 + n_s2] - j})
+            k, s2, j = k + n_k, s2 + n_s2, j + n_j
+        return out
+
+    def load_item_states(self, states: list[dict[str, torch.Tensor]]) -> None:
+        """Continue a union with its drawings' own states (after its first call)."""
+        u = self._union
+        assert u is not None and len(states) == u.items
+        if not all(states):
+            return
+        device = self.ref.points.device
+        chords, segments = [], []
+        s2 = j = 0
+        for b, state in enumerate(states):
+            chords.append(state["chord"].to(device) + s2)
+            segments.append(state["segment"].to(device) + j)
+            s2, j = s2 + u.samples[b], j + u.segments[b]
+        self._near = (torch.cat(chords), torch.cat(segments))
 
     def state(self) -> dict[str, torch.Tensor]:
         """The current matches (for a checkpoint); empty before the first step."""
@@ -276,6 +349,11 @@ class TraceLoss:
         self._ranges = (torch.as_tensor(first, device=device),
                         torch.as_tensor(last, device=device))
         self._layout, self._near = layout, None
+        if self._union is not None:
+            u = self._union
+            u.sample_item = u.path_item[layout.segment_path].repeat_interleave(2)
+            u.samples = np.bincount(u.path_item.cpu().numpy()[half_path],
+                                    minlength=u.items).tolist()
 
     def _search(self, starts: torch.Tensor, ends: torch.Tensor) -> None:
         """The nearest chord of every recall point and the nearest input segment of every
@@ -349,4 +427,28 @@ class TraceLoss:
         s2 = self.scale * self.scale
         recall = (recall.view(-1, w).amin(1) + s2).sqrt()  # (K,) ρ + s
         precision = (precision.view(-1, w).amin(1) + s2).sqrt()  # (2S,) ρ + s
+        if self._union is not None:  # each drawing's own means (B,)
+            u = self._union
+            return (u.mean(recall, u.point_item) + u.mean(precision, u.sample_item)
+                    - 2.0 * self.scale) / self.ref.unit
         return (recall.mean() + precision.mean() - 2.0 * self.scale) / self.ref.unit
+
+
+@dataclass
+class _Union:
+    """Which drawing each path, recall point and fitted sample of a union belongs to."""
+
+    items: int
+    path_item: torch.Tensor  # (P,) long
+    point_item: torch.Tensor  # (K,) long
+    points: list[int]  # K_b
+    segments: list[int]  # J_b
+    sample_item: torch.Tensor | None = None  # (2S,) long, per layout
+    samples: list[int] = field(default_factory=list)  # 2·S_b, per layout
+
+    def mean(self, values: torch.Tensor, item: torch.Tensor | None) -> torch.Tensor:
+        """Each drawing's mean of ``values`` (n,) (B,)."""
+        assert item is not None
+        zeros = values.new_zeros(self.items)
+        return zeros.index_add(0, item, values) / zeros.index_add(0, item,
+                                                                   torch.ones_like(values))

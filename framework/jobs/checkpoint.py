@@ -62,7 +62,8 @@ class Checkpoints:
         started = time.perf_counter()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_name(f"{self.path.name}.partial-{os.getpid()}")
-        torch.save({"fingerprint": self.fingerprint, "step": step, "state": state}, tmp)
+        torch.save({"fingerprint": self.fingerprint, "step": step, "state": state,
+                    "threads": torch.get_num_threads()}, tmp)
         os.replace(tmp, self.path)
         self._last_step, self._last_time = step, time.monotonic()
         self.saved += 1
@@ -82,6 +83,14 @@ class Checkpoints:
         if not isinstance(saved, dict) or saved.get("fingerprint") != self.fingerprint:
             return None
         self._last_step = int(saved["step"])
+        made_with = saved.get("threads")
+        if made_with is not None and made_with != torch.get_num_threads():
+            import logging
+
+            logging.getLogger("inkmotion").warning(
+                "resuming a checkpoint made with %s torch threads on %s: the result may "
+                "differ from an uninterrupted run in the last bits (INKMOTION_THREADS=%s "
+                "reproduces it)", made_with, torch.get_num_threads(), made_with)
         return dict(saved["state"], step=int(saved["step"]))
 
     def remove(self) -> None:

@@ -142,18 +142,13 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
     :class:`inkmotion.errors.InkmotionError` subclasses for user-caused failures (bad
     input, unknown plugin); nothing is left in ``out_dir`` then.
     """
-    import numpy as np
-    import torch
-
-    from inkmotion.devices import configure_threads, resolve_device
+    from inkmotion.devices import RunningJobs, configure_threads, resolve_device
     from inkmotion.outputs import StagingDir
 
     resolved = resolve(spec)
     device = resolve_device(spec.device)
     threads = configure_threads()
-    torch.manual_seed(spec.seed)
-    np.random.seed(spec.seed % 2**32)
-    random.seed(spec.seed)
+    seed_everything(spec.seed)
     group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
                                                recording_id=recording_id), *observers])
     total = int(resolved.kind.steps(resolved.params))
@@ -164,6 +159,8 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
         checkpoints = ck.Checkpoints(checkpoint, spec.to_dict(),
                                      checkpoint_every or ck.EVERY_STEPS,
                                      checkpoint_s or ck.EVERY_S, now=checkpoint_now)
+    running = RunningJobs()
+    running.enter(threads)  # a lone run started meanwhile sees this one
     with StagingDir(Path(out_dir)) as staging:
         try:
             job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
@@ -177,8 +174,138 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
             group.on_end(report)
         finally:
             group.close()  # files complete (or released) before the folder moves
+            running.leave()
         staging.commit()
     return report
+
+
+def seed_everything(seed: int) -> None:
+    """Seed torch, NumPy and ``random`` with a job's seed."""
+    import numpy as np
+    import torch
+
+    torch.manual_seed(seed)
+    np.random.seed(seed % 2**32)
+    random.seed(seed)
+
+
+@dataclass
+class Together:
+    """One job of :func:`run_jobs_together`: what :func:`run_job` takes for it alone."""
+
+    spec: JobSpec
+    out_dir: Path
+    observers: Sequence[object] = ()
+    recording_id: str | None = None
+    checkpoint: Path | None = None
+
+
+def batchable(specs: Sequence[JobSpec]) -> bool:
+    """Whether these jobs can run as one batched optimisation: one kind that can, and the
+    same parameters, plugins and device (only their inputs and seeds differ)."""
+    if len(specs) < 2:
+        return False
+    kinds = {s.kind for s in specs}
+    if len(kinds) != 1:
+        return False
+    resolved = resolve(specs[0])
+    if getattr(resolved.kind, "run_together", None) is None:
+        return False
+    first = specs[0].to_dict()
+    same = {k: v for k, v in first.items() if k not in ("inputs", "seed")}
+    return all({k: v for k, v in s.to_dict().items() if k not in ("inputs", "seed")} == same
+               for s in specs[1:])
+
+
+def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
+                      checkpoint_every: int | None = None, checkpoint_s: float | None = None,
+                      checkpoint_now: Any = None, fallback: bool = True
+                      ) -> list[dict | BaseException]:
+    """Run several jobs of one kind as one batched optimisation (the kind's
+    ``run_together``, :func:`batchable` jobs), each with its own staging folder, observers,
+    checkpoint, job.json and report.json, committed on its own: the same artifacts as
+    :func:`run_job` of each, up to float round-off of the batched arithmetic. Returns each
+    job's report, or the exception it failed with. When the batch itself fails (a bad
+    input, a NaN in one drawing), every job runs again alone, so one job's failure is its
+    own and the others still finish; with ``fallback=False`` the batch's exception is
+    raised instead (a worker that queues the jobs again)."""
+    from contextlib import ExitStack
+
+    from inkmotion.devices import RunningJobs, configure_threads, resolve_device
+    from inkmotion.outputs import StagingDir
+
+    specs = [j.spec for j in jobs]
+    if not batchable(specs):
+        return [_alone(j, record, checkpoint_every, checkpoint_s, checkpoint_now) for j in jobs]
+    resolved = [resolve(spec) for spec in specs]
+    device = resolve_device(specs[0].device)
+    threads = configure_threads()
+    running = RunningJobs()
+    running.enter(threads)
+    groups: list[ObserverGroup] = []
+    try:
+        with ExitStack() as stack:
+            stagings = [stack.enter_context(StagingDir(Path(j.out_dir))) for j in jobs]
+            shells = []
+            for j, r, staging in zip(jobs, resolved, stagings, strict=True):
+                group = ObserverGroup([*standard_observers(
+                    j.spec, record=record, progress=False, recording_id=j.recording_id),
+                    *j.observers])
+                groups.append(group)
+                shells.append(Job(j.spec, r.params, device, staging.path, group, r,
+                                  int(r.kind.steps(r.params)),
+                                  checkpoints=_checkpoints(j, checkpoint_every, checkpoint_s,
+                                                           checkpoint_now)))
+            outcomes = list(resolved[0].kind.run_together(shells))
+            for shell, outcome in zip(shells, outcomes, strict=True):
+                if isinstance(outcome, BaseException):
+                    continue
+                outcome.update(kind=shell.spec.kind, device=str(device), threads=threads,
+                               batch=len(shells),
+                               wall_s=round(time.perf_counter() - shell.started, 3))
+                record_job(shell.folder, shell.resolved.full_spec(), outcome)
+                shell.observers.on_end(outcome)
+            for group in groups:
+                group.close()
+            groups = []
+            for staging, outcome in zip(stagings, outcomes, strict=True):
+                if isinstance(outcome, BaseException):
+                    staging.abort()  # a job that failed leaves nothing behind
+                else:
+                    staging.commit()
+        return [o if isinstance(o, BaseException) else dict(o) for o in outcomes]
+    except Exception:  # noqa: BLE001 - every job runs again alone and keeps its own outcome
+        import logging
+
+        for group in groups:
+            group.close()
+        if not fallback:
+            raise
+        logging.getLogger("inkmotion").warning(
+            "a batch of %d %s jobs failed; running each alone", len(jobs), specs[0].kind,
+            exc_info=True)
+        return [_alone(j, record, checkpoint_every, checkpoint_s, checkpoint_now) for j in jobs]
+    finally:
+        running.leave()
+
+
+def _checkpoints(job: Together, every: int | None, every_s: float | None, now: Any) -> Any:
+    if job.checkpoint is None:
+        return None
+    from inkmotion.jobs import checkpoint as ck
+
+    return ck.Checkpoints(job.checkpoint, job.spec.to_dict(), every or ck.EVERY_STEPS,
+                          every_s or ck.EVERY_S, now=now)
+
+
+def _alone(job: Together, record: bool, every: int | None, every_s: float | None,
+           now: Any) -> dict | BaseException:
+    try:
+        return run_job(job.spec, job.out_dir, job.observers, record=record,
+                       recording_id=job.recording_id, checkpoint=job.checkpoint,
+                       checkpoint_every=every, checkpoint_s=every_s, checkpoint_now=now)
+    except Exception as exc:  # noqa: BLE001 - the caller reports each job's own outcome
+        return exc
 
 
 def record_job(folder: Path, spec: JobSpec, report: dict) -> None:

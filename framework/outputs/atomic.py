@@ -61,6 +61,7 @@ class StagingDir:
         """Remove the staging directory; ``final`` is left as it was."""
         if self.path is not None and not self.committed:
             shutil.rmtree(self.path, ignore_errors=True)
+            self.aborted = True
 
     def __exit__(
         self,
@@ -68,13 +69,13 @@ class StagingDir:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        if exc_type is None:
+        if exc_type is None and not getattr(self, "aborted", False):
             try:
                 self.commit()
             except BaseException:
                 self.abort()
                 raise
-        else:
+        elif exc_type is not None:
             self.abort()
 
 

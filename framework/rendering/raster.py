@@ -68,6 +68,18 @@ class RasterBudget:
     patch_y: int
 
 
+@dataclass(frozen=True)
+class Canvases:
+    """Several drawings rendered by one call (a batched fit): segment s goes to image
+    ``image[s]``, and image b is ``sizes[b]`` = (width, height) px, drawn into the top-left
+    corner of a (count, H, W) stack whose H, W are the call's (at least the largest). A
+    piece is clipped to its own canvas, so no drawing bleeds into another."""
+
+    image: torch.Tensor  # (S,) long
+    sizes: torch.Tensor  # (count, 2) long: (width, height)
+    count: int
+
+
 # --- validation and sizes (detached) ---------------------------------------------------------
 def check_inputs(
     segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
@@ -238,17 +250,20 @@ def fit_counts(counts: torch.Tensor, pieces: int) -> tuple[torch.Tensor, torch.T
 
 
 def pixel_ranges(a: torch.Tensor, b: torch.Tensor, r: torch.Tensor, height: int,
-                 width: int) -> tuple[torch.Tensor, torch.Tensor]:
+                 width: int, limits: torch.Tensor | None = None
+                 ) -> tuple[torch.Tensor, torch.Tensor]:
     """First and last pixel (column, row) whose centre lies within r + ½ of each piece: c0
     in [0, size], c1 in [−1, size − 1], (N, 2) long each; c1 < c0 for a piece off the
     canvas. Detached, from finite copies: NaN input cannot give a wild index. a, b (N, D):
-    only x, y count; r (N,) the largest radius of each piece."""
+    only x, y count; r (N,) the largest radius of each piece. ``limits`` (N, 2): each
+    piece's own canvas (width, height) instead (several canvases in one call)."""
     with torch.no_grad():
         a, b = _finite(a[:, :2]), _finite(b[:, :2])
         reach = (_finite(r) + 0.5)[:, None]  # (N, 1)
         lo = torch.minimum(a, b) - reach  # (N, 2)
         hi = torch.maximum(a, b) + reach
-        size = torch.arange(2, device=a.device) * (height - width) + width  # (W, H), no upload
+        size = (torch.arange(2, device=a.device) * (height - width) + width  # (W, H), no upload
+                if limits is None else limits)
         c0 = torch.minimum((torch.floor(lo - 0.5) + 1).clamp(min=0), size)  # first centre > lo
         c1 = torch.minimum((torch.ceil(hi - 0.5) - 1).clamp(min=-1), size - 1)  # last < hi
         return c0.long(), c1.long()
@@ -265,8 +280,11 @@ def capsule_coverage(
     width: int,
     valid: torch.Tensor | None = None,  # (N,) bool: pieces to draw
     r_end: torch.Tensor | None = None,  # (N,) radii r_b at the ends (varying width)
+    piece_image: torch.Tensor | None = None,  # (N,) long: the image of each piece
+    count: int = 1,  # images drawn (with ``piece_image``)
 ) -> torch.Tensor:
-    """Image (H, W): per pixel the max over pieces of clamp(r + ½ − d, 0, 1), d the distance
+    """Image (H, W), or (count, H, W) with ``piece_image``: per pixel the max over pieces
+    of clamp(r + ½ − d, 0, 1), d the distance
     of the pixel centre to the capsule's axis, t = clamp(ap·ab / |ab|², 0, 1), d = |ap − t·ab|;
     with ``r_end``, r = r_a + t·(r_b − r_a) (the width varies along the piece).
     Only the patch of kx × ky pixels from c0 (clipped at c1) of each piece is evaluated."""
@@ -282,6 +300,8 @@ def capsule_coverage(
             inside = inside & valid[:, None, None]
         row = ys.minimum(c1[:, 1:]).clamp(min=0)[:, :, None]
         flat = row * width + xs.minimum(c1[:, :1]).clamp(min=0)[:, None, :]  # (N, ky, kx)
+        if piece_image is not None:
+            flat = flat + (piece_image * (height * width))[:, None, None]
 
     ab = b - a  # (N, 2)
     inv_len2 = 1 / (ab * ab).sum(1).clamp(min=1e-12)  # (N,)
@@ -296,10 +316,12 @@ def capsule_coverage(
     else:
         rad = r[:, None, None] + t * (r_end - r)[:, None, None]  # (N, ky, kx)
     cov = (rad + 0.5 - d).clamp(0, 1) * inside  # (N, ky, kx)
-    img = torch.zeros(height * width, dtype=dtype, device=dev)
+    pages = 1 if piece_image is None else count
+    img = torch.zeros(pages * height * width, dtype=dtype, device=dev)
     img = img.scatter_reduce(0, flat.reshape(-1), cov.reshape(-1), reduce="amax",
                              include_self=True)
-    return img.reshape(height, width)
+    return img.reshape(height, width) if piece_image is None else \
+        img.reshape(count, height, width)
 
 
 def _inputs_sum(ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
@@ -308,27 +330,61 @@ def _inputs_sum(ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
     return ctrl.sum() if _varying(ctrl) else ctrl.sum() + w.sum()
 
 
-def _paper(ctrl: torch.Tensor, w: torch.Tensor, height: int, width: int) -> torch.Tensor:
-    """A blank image (H, W) that keeps the graph to the inputs (zero gradient)."""
+def _image_sums(ctrl: torch.Tensor, w: torch.Tensor, canvases: Canvases) -> torch.Tensor:
+    """:func:`_inputs_sum` per image (count,): each drawing's NaN stays its own."""
+    per_segment = ctrl.sum((1, 2)) if _varying(ctrl) else ctrl.sum((1, 2)) + w
+    return per_segment.new_zeros(canvases.count).index_add(0, canvases.image, per_segment)
+
+
+def _paper(ctrl: torch.Tensor, w: torch.Tensor, height: int, width: int,
+           canvases: Canvases | None = None) -> torch.Tensor:
+    """A blank image (H, W), or (count, H, W), that keeps the graph to the inputs (zero
+    gradient)."""
+    if canvases is not None:
+        return (ctrl.new_zeros(canvases.count, height, width)
+                + 0 * _image_sums(ctrl, w, canvases)[:, None, None])
     return ctrl.new_zeros(height, width) + 0 * _inputs_sum(ctrl, w)
 
 
-def _poison(img: torch.Tensor, ctrl: torch.Tensor, w: torch.Tensor) -> torch.Tensor:
+def _poison(img: torch.Tensor, ctrl: torch.Tensor, w: torch.Tensor,
+            canvases: Canvases | None = None) -> torch.Tensor:
     """``img`` unchanged, or all NaN when a coordinate, radius or width is not finite (no
-    device read): unchecked NaN input must reach the loss, where the fitting loop looks."""
+    device read): unchecked NaN input must reach the loss, where the fitting loop looks.
+    With ``canvases``, only the image of the drawing with the NaN."""
+    if canvases is not None:
+        return img + 0 * _image_sums(ctrl, w, canvases)[:, None, None]
     return img + 0 * _inputs_sum(ctrl, w)
 
 
 # --- the two paths ---------------------------------------------------------------------------
+def _check_canvases(canvases: Canvases | None, n_seg: int, height: int, width: int) -> None:
+    if canvases is None:
+        return
+    if canvases.image.shape != (n_seg,) or canvases.sizes.shape != (canvases.count, 2):
+        raise ValueError(f"Canvases need an image index per segment ({n_seg},) and a size "
+                         f"per image ({canvases.count}, 2); got {tuple(canvases.image.shape)}"
+                         f" and {tuple(canvases.sizes.shape)}.")
+
+
+def _limits(canvases: Canvases | None, piece_seg: torch.Tensor
+            ) -> tuple[torch.Tensor | None, torch.Tensor | None]:
+    """Each piece's image (N,) and its canvas (width, height) (N, 2), or None, None."""
+    if canvases is None:
+        return None, None
+    image = canvases.image[piece_seg]
+    return image, canvases.sizes[image]
+
+
 def render_segments(
     segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
-    check: bool = True,
+    check: bool = True, canvases: Canvases | None = None,
 ) -> torch.Tensor:
     """Render cubic Bézier segments in pixel coordinates (x right, y down; pixel (r, c)
     centred at (c + ½, r + ½)) to a coverage image (H, W) in [0, 1]: segments (S, 4, 2) with
     stroke widths (S,) or a number, I(p) = max over pieces of clamp(w/2 + ½ − d(p), 0, 1);
     or segments (S, 4, 3) whose 3rd coordinate is the radius in px (widths ignored), each
-    piece's radius interpolated between its ends (module docstring).
+    piece's radius interpolated between its ends (module docstring). With ``canvases``,
+    several drawings at once: a stack (count, H, W), each segment on its own image.
 
     Differentiable w.r.t. segments (radius included) and widths. Raises ValueError on bad
     shapes, and with ``check`` on NaN/inf input or negative widths or radii (without, NaN
@@ -337,30 +393,35 @@ def render_segments(
     """
     height, width = int(height), int(width)
     ctrl, w = check_inputs(segments, widths, height, width, check)
+    _check_canvases(canvases, ctrl.shape[0], height, width)
     radii = segment_radii(ctrl, w)  # (S,)
     counts = piece_counts(ctrl, radii, height, width)  # (S,)
     if ctrl.shape[0] == 0 or int(counts.sum()) == 0:
-        return _paper(ctrl, w, height, width)
+        return _paper(ctrl, w, height, width, canvases)
     a, b, piece_seg = flatten(ctrl, counts)  # (N, D), (N, D), (N,)
     r, r_end = piece_radii(a, b, radii, piece_seg)  # (N,), (N,) or None
-    c0, c1 = pixel_ranges(a, b, _reach(r, r_end), height, width)  # (N, 2) each
+    image, limits = _limits(canvases, piece_seg)
+    c0, c1 = pixel_ranges(a, b, _reach(r, r_end), height, width, limits)  # (N, 2) each
     keep = (c1 >= c0).all(1)  # (N,) pieces that touch the canvas
     if not bool(keep.all()):
         a, b, r, c0, c1 = a[keep], b[keep], r[keep], c0[keep], c1[keep]
         r_end = None if r_end is None else r_end[keep]
+        image = None if image is None else image[keep]
     if a.shape[0] == 0:
-        return _paper(ctrl, w, height, width)
+        return _paper(ctrl, w, height, width, canvases)
     kx, ky = (c1 - c0 + 1).amax(0).tolist()  # patch size: the widest piece range
-    img = capsule_coverage(a, b, r, c0, c1, (kx, ky), height, width, r_end=r_end)
-    return img if check else _poison(img, ctrl, w)
+    img = capsule_coverage(a, b, r, c0, c1, (kx, ky), height, width, r_end=r_end,
+                           piece_image=image, count=canvases.count if canvases else 1)
+    return img if check else _poison(img, ctrl, w, canvases)
 
 
 def render_segments_static(
     segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int,
-    budget: RasterBudget, check: bool = False,
+    budget: RasterBudget, check: bool = False, canvases: Canvases | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """:func:`render_segments` (segments (S, 4, 2) with widths, or (S, 4, 3) with radii) with
-    the static sizes of ``budget``: no device read, the same image while the data fit it.
+    """:func:`render_segments` (segments (S, 4, 2) with widths, or (S, 4, 3) with radii;
+    several drawings with ``canvases``) with the static sizes of ``budget``: no device read,
+    the same image while the data fit it.
     Returns the image (H, W) and a 0-d bool on the device, True when they (nearly) outgrew
     it: past ``ALARM`` of the pieces or a piece as wide as the patch; past the budget
     itself the curve is drawn with fewer pieces or clipped patches. NaN input gives a NaN
@@ -368,21 +429,23 @@ def render_segments_static(
     """
     height, width = int(height), int(width)
     ctrl, w = check_inputs(segments, widths, height, width, check)
+    _check_canvases(canvases, ctrl.shape[0], height, width)
     if ctrl.shape[0] == 0:
-        return _paper(ctrl, w, height, width), torch.zeros((), dtype=torch.bool,
-                                                           device=ctrl.device)
+        return _paper(ctrl, w, height, width, canvases), torch.zeros(
+            (), dtype=torch.bool, device=ctrl.device)
     radii = segment_radii(ctrl, w)  # (S,)
     counts, too_many = fit_counts(piece_counts(ctrl, radii, height, width), budget.pieces)
     a, b, piece_seg, valid = flatten_static(ctrl, counts, budget.pieces)  # (B, ...)
     r, r_end = piece_radii(a, b, radii, piece_seg)  # (B,), (B,) or None
-    c0, c1 = pixel_ranges(a, b, _reach(r, r_end), height, width)  # (B, 2) each
+    image, limits = _limits(canvases, piece_seg)
+    c0, c1 = pixel_ranges(a, b, _reach(r, r_end), height, width, limits)  # (B, 2) each
     with torch.no_grad():  # pieces on the canvas as wide as the patch
         extent = c1 - c0 + 1  # (B, 2), ≤ 0 off the canvas
         too_wide = (((extent[:, 0] >= budget.patch_x) | (extent[:, 1] >= budget.patch_y))
                     & (extent > 0).all(1) & valid).any()
     img = capsule_coverage(a, b, r, c0, c1, (budget.patch_x, budget.patch_y), height, width,
-                           valid, r_end)
-    return _poison(img, ctrl, w), too_many | too_wide
+                           valid, r_end, image, canvases.count if canvases else 1)
+    return _poison(img, ctrl, w, canvases), too_many | too_wide
 
 
 def plan_budget(segments: torch.Tensor, widths: torch.Tensor | float, height: int,
@@ -425,18 +488,24 @@ class RasterSession:
         self.budgets: dict[tuple, RasterBudget] = {}
         self.overflow: torch.Tensor | None = None  # 0-d bool on the device
 
+    #: renders several drawings in one call (``canvases``): a batched fit asks for it
+    renders_canvases = True
+
     def __call__(self, segments: torch.Tensor, widths: torch.Tensor | float, height: int,
-                 width: int) -> torch.Tensor:
+                 width: int, canvases: Canvases | None = None) -> torch.Tensor:
         """Coverage image (H, W) of cubic segments (S, 4, 2) with widths (S,) or a number,
-        or (S, 4, 3) whose 3rd coordinate is the radius in px (widths ignored)."""
+        or (S, 4, 3) whose 3rd coordinate is the radius in px (widths ignored); a stack
+        (count, H, W) of several drawings with ``canvases``."""
         if not self.static:
-            return render_segments(segments, widths, height, width, check=self.check)
-        key = (tuple(segments.shape), int(height), int(width), segments.device, segments.dtype)
+            return render_segments(segments, widths, height, width, check=self.check,
+                                   canvases=canvases)
+        key = (tuple(segments.shape), int(height), int(width), segments.device, segments.dtype,
+               canvases.count if canvases is not None else 0)
         budget = self.budgets.get(key)
         if budget is None:
             budget = self.budgets[key] = plan_budget(segments, widths, height, width)
         img, over = render_segments_static(segments, widths, height, width, budget,
-                                           self.check)
+                                           self.check, canvases)
         self.overflow = over if self.overflow is None else self.overflow | over
         return img
 

@@ -1,0 +1,99 @@
+"""Throughput: default fits per minute on this machine, jobs side by side and in batches.
+
+- ``concurrent_N_fits_per_min``: N ``inkmotion run fit`` processes started together, each
+  told it shares the cores with N − 1 others (``INKMOTION_JOB_SLOTS``, what a worker pool
+  of N slots tells its children), N fits / the wall time until the last one finished.
+- ``oversubscribed_2_fits_per_min``: the same for 2 processes that each take every core
+  (``INKMOTION_THREADS`` = cores: no thread policy), the fight the policy avoids.
+- ``batch_B_fits_per_min``: B fits as one batched optimisation in one process
+  (:func:`inkmotion.jobs.shell.run_jobs_together`), B / its wall time (in this process,
+  warmed up by a short fit: no process start-up, which the jobs side by side pay).
+- ``fit_alone_s``: one fit alone, for the ratio ``pair_over_alone`` (the wall time of two
+  side by side over one alone; the goal is ≤ 1.3).
+
+The drawings are built-in words (text:WORD, a different one per fit), fitted with the fit
+kind's defaults, so the figures need no data beside the repository.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+WORDS = ("hello", "world", "graffiti", "motion", "sigma", "lognormal", "robot", "drawing",
+         "paint", "spray", "marker", "pencil", "brush", "stroke", "curve", "letter")
+
+
+def _concurrent(n: int, root: Path, env: dict[str, str], device: str = "cpu") -> float:
+    """Seconds until ``n`` fits started together all finished."""
+    started = time.perf_counter()
+    procs = [subprocess.Popen([sys.executable, "-m", "inkmotion", "run", "fit",
+                               f"text:{WORDS[k % len(WORDS)]}", "--device", device, "--out",
+                               str(root / f"c{n}-{k}")],
+                              env={**os.environ, **env}, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+             for k in range(n)]
+    codes = [p.wait() for p in procs]
+    if any(codes):
+        raise RuntimeError(f"a fit of the throughput benchmark failed (exit codes {codes})")
+    return time.perf_counter() - started
+
+
+def _batch(b: int, root: Path, device: str = "cpu") -> float:
+    """Seconds of ``b`` fits as one batched optimisation in this process."""
+    from inkmotion.jobs.shell import Together, run_jobs_together
+    from inkmotion.jobs.spec import JobSpec
+
+    jobs = [Together(JobSpec(kind="fit", inputs={"drawing": f"text:{WORDS[k % len(WORDS)]}"},
+                             record_every=0, device=device), root / f"b{b}-{k}")
+            for k in range(b)]
+    started = time.perf_counter()
+    outcomes = run_jobs_together(jobs)
+    failed = [o for o in outcomes if isinstance(o, BaseException)]
+    if failed:
+        raise RuntimeError(f"a batched fit of the throughput benchmark failed: {failed[0]}")
+    return time.perf_counter() - started
+
+
+def _warm_up(folder: Path, device: str) -> None:
+    """A 5-step fit here, so the first batch does not pay the fit's first imports."""
+    from inkmotion.jobs.shell import run_job
+    from inkmotion.jobs.spec import JobSpec
+
+    run_job(JobSpec(kind="fit", inputs={"drawing": "text:warm"}, params={"steps": 5},
+                    record_every=0, device=device), folder)
+
+
+def bench_throughput(concurrency: tuple[int, ...] = (1, 2, 4),
+                     batches: tuple[int, ...] = (1, 4, 16),
+                     device: str = "cpu") -> dict[str, float]:
+    """The figures of the module docstring (minutes of work: many full fits) on ``device``
+    (on a GPU the jobs side by side share it)."""
+    from inkmotion.devices import SLOTS_ENV, available_cores
+
+    figures: dict[str, float] = {}
+    cores = available_cores()
+    free = {"INKMOTION_THREADS": ""}  # the policy decides, not an outer override
+    with tempfile.TemporaryDirectory(prefix="inkmotion-throughput-") as tmp:
+        root = Path(tmp)
+        alone = _concurrent(1, root / "alone", {**free, SLOTS_ENV: "1"}, device)
+        figures["fit_alone_s"] = alone
+        for n in concurrency:
+            wall = alone if n == 1 else _concurrent(n, root / f"n{n}",
+                                                    {**free, SLOTS_ENV: str(n)}, device)
+            figures[f"concurrent_{n}_fits_per_min"] = 60.0 * n / wall
+            if n == 2:
+                figures["pair_over_alone"] = wall / alone
+        if device == "cpu":
+            wall = _concurrent(2, root / "over",
+                               {"INKMOTION_THREADS": str(cores), SLOTS_ENV: "1"})
+            figures["oversubscribed_2_fits_per_min"] = 120.0 / wall
+        _warm_up(root / "warm", device)
+        for b in batches:
+            figures[f"batch_{b}_fits_per_min"] = 60.0 * b / _batch(b, root / f"batch{b}",
+                                                                    device)
+    return figures

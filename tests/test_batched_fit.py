@@ -1,0 +1,210 @@
+"""Batched fits: several drawings in one optimisation give each drawing its own fit.
+
+Each batched part against the per-drawing one it replaces (renderer canvases, stacked
+multi-scale MSE, per-drawing smoothing, canvas and trace terms), then whole fit jobs run
+together against the same jobs run alone, and the thread policy."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+from inkmotion.devices import RunningJobs, default_threads, threads_per_job
+from inkmotion.fitting.losses import canvas_cost, canvas_costs, smoothing_cost, smoothing_costs
+from inkmotion.image_losses.multiscale_mse import prepare_multiscale_mse, stack_multiscale_mse
+from inkmotion.rendering.raster import (
+    Canvases,
+    plan_budget,
+    render_segments,
+    render_segments_static,
+)
+from inkmotion.sigma_lognormal.batch import PlanBatch
+from inkmotion.sigma_lognormal.plan import MotorPlan
+
+
+def _segments(n: int, w: float, h: float, seed: int) -> torch.Tensor:
+    g = torch.Generator().manual_seed(seed)
+    return torch.rand(n, 4, 2, generator=g, dtype=torch.float64) * torch.tensor([w, h],
+                                                                                dtype=torch.float64)
+
+
+def _two_drawings() -> tuple[torch.Tensor, Canvases, torch.Tensor, torch.Tensor]:
+    a, b = _segments(30, 120, 80, 1), _segments(20, 90, 100, 2)
+    b[0] = torch.tensor([[80., 10.], [100., 20.], [130., 30.], [150., 40.]])  # past its edge
+    image = torch.cat([torch.zeros(30, dtype=torch.long), torch.ones(20, dtype=torch.long)])
+    return torch.cat([a, b]), Canvases(image, torch.tensor([[120, 80], [90, 100]]), 2), a, b
+
+
+def test_canvases_render_each_drawing_exactly_as_alone_and_nothing_bleeds():
+    segments, canvases, a, b = _two_drawings()
+    stack = render_segments(segments, 3.0, 100, 120, check=False, canvases=canvases)
+    assert stack.shape == (2, 100, 120)
+    assert torch.equal(stack[0, :80, :120], render_segments(a, 3.0, 80, 120, check=False))
+    assert torch.equal(stack[1, :100, :90], render_segments(b, 3.0, 100, 90, check=False))
+    assert stack[0, 80:].abs().sum() == 0 and stack[1, :, 90:].abs().sum() == 0
+    budget = plan_budget(segments, 3.0, 100, 120)
+    static, _ = render_segments_static(segments, 3.0, 100, 120, budget, canvases=canvases)
+    assert torch.equal(static, stack)
+
+
+def test_a_nan_in_one_drawing_poisons_only_its_own_image():
+    segments, canvases, _, _ = _two_drawings()
+    segments[35, 1, 0] = float("nan")  # drawing 1
+    stack = render_segments(segments, 3.0, 100, 120, check=False, canvases=canvases)
+    assert not torch.isnan(stack[0]).any() and torch.isnan(stack[1]).all()
+
+
+def test_the_stacked_multiscale_mse_is_each_drawings_own():
+    g = torch.Generator().manual_seed(0)
+    shapes = [(250, 350), (350, 242), (180, 350)]
+    targets = [torch.rand(*s, generator=g, dtype=torch.float64) for s in shapes]
+    images = [torch.rand(*s, generator=g, dtype=torch.float64) for s in shapes]
+    losses = [prepare_multiscale_mse(t) for t in targets]
+    page = torch.zeros(3, 350, 350, dtype=torch.float64)
+    for k, (img, (h, w)) in enumerate(zip(images, shapes, strict=True)):
+        page[k, :h, :w] = img
+    together = stack_multiscale_mse(losses, 350, 350)(page)
+    alone = torch.stack([fn(img) for fn, img in zip(losses, images, strict=True)])
+    torch.testing.assert_close(together, alone, rtol=1e-12, atol=0)
+
+
+def _plans(seed: int, paths: int) -> list[MotorPlan]:
+    g = torch.Generator().manual_seed(seed)
+    out = []
+    for p in range(paths):
+        m = 2 + p
+        out.append(MotorPlan(points=torch.rand(m + 1, 2, generator=g, dtype=torch.float64) * 300
+                             - 20, delta_t=0.1 + 0.8 * torch.rand(m, generator=g,
+                                                                  dtype=torch.float64),
+                             delta=torch.rand(m, generator=g, dtype=torch.float64) - 0.5,
+                             ac=torch.full((m,), 0.05, dtype=torch.float64),
+                             T=torch.full((m,), 0.3, dtype=torch.float64)))
+    return out
+
+
+@pytest.mark.parametrize("over", ["pooled", "drawing", "path"])
+def test_smoothing_and_canvas_costs_per_drawing_are_each_drawings_own(over):
+    drawings = [_plans(1, 3), _plans(2, 1), _plans(3, 2)]
+    union = PlanBatch.from_plans([p for d in drawings for p in d])
+    layout = union.layout()
+    t_end = torch.rand(len(layout.moves), dtype=torch.float64) + 1
+    path_item = torch.repeat_interleave(torch.arange(3), torch.tensor([3, 1, 2]))
+    costs = smoothing_costs(union, t_end, 10.0, layout, over, path_item, 3)
+    sizes = torch.tensor([[250, 200], [300, 100], [120, 260]])
+    point_item = torch.repeat_interleave(path_item, layout.moves + 1)
+    canvas = canvas_costs(union.points, point_item, sizes, 3)
+    start = 0
+    for k, d in enumerate(drawings):
+        own = PlanBatch.from_plans(d)
+        ends = t_end[start:start + len(d)]
+        start += len(d)
+        torch.testing.assert_close(costs[k], smoothing_cost(own, ends, 10.0, own.layout(), over))
+        torch.testing.assert_close(canvas[k], canvas_cost(own.points, *sizes[k].tolist()))
+
+
+def _fit_specs(words: list[str], steps: int) -> list:
+    from inkmotion.jobs.spec import JobSpec
+
+    return [JobSpec(kind="fit", inputs={"drawing": w}, params={"steps": steps, "size": 128},
+                    record_every=0) for w in words]
+
+
+def test_fit_jobs_run_together_report_each_its_own_fit(tmp_path):
+    """Three fits in one batch against the same three alone: the same plan sizes, the
+    same losses before the first step (float round-off), close fits after it (the stages'
+    edits depend on the fit, so round-off can tip an edit: the goal is the same quality),
+    each job's own artifacts, and a job whose input cannot be read fails alone."""
+    from inkmotion.errors import InputError
+    from inkmotion.jobs.shell import Together, run_job, run_jobs_together
+
+    words = ["text:hi", "text:ok", "text:go"]
+    specs = _fit_specs(words, 60)
+    alone = [run_job(s, tmp_path / f"alone{k}") for k, s in enumerate(specs)]
+    bad = tmp_path / "empty.svg"
+    bad.write_text("<svg xmlns='http://www.w3.org/2000/svg'></svg>")
+    jobs = [Together(s, tmp_path / f"together{k}") for k, s in enumerate(specs)]
+    jobs.insert(1, Together(_fit_specs([str(bad)], 60)[0], tmp_path / "bad"))
+    outcomes = run_jobs_together(jobs)
+    assert isinstance(outcomes[1], InputError) and not (tmp_path / "bad").exists()
+    together = [outcomes[0], *outcomes[2:]]
+    for k, (one, many) in enumerate(zip(alone, together, strict=True)):
+        assert many["batch"] == 4 and many["moves"] == one["moves"]
+        for term, value in one["initial_loss"].items():
+            assert many["initial_loss"][term] == pytest.approx(value, rel=1e-5, abs=1e-6)
+        assert abs(many["chamfer_mean_px"] - one["chamfer_mean_px"]) < 0.35
+        saved = json.loads((tmp_path / f"together{k}" / "report.json").read_text())
+        assert saved["chamfer_max_px"] == many["chamfer_max_px"]
+        assert (tmp_path / f"together{k}" / "plan.json").is_file()
+
+
+def test_threads_per_job_divide_the_cores_between_the_jobs_that_share_them(monkeypatch):
+    assert threads_per_job(1, cores=2) == 2 and threads_per_job(2, cores=2) == 1
+    assert threads_per_job(4, cores=2) == 1 and threads_per_job(2, cores=16) == 4
+    monkeypatch.delenv("INKMOTION_THREADS", raising=False)
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    monkeypatch.setenv("INKMOTION_JOB_SLOTS", "64")
+    assert default_threads() == 1
+    monkeypatch.setenv("INKMOTION_THREADS", "3")
+    assert default_threads() == 3  # the user's override wins
+
+
+def test_a_lone_run_counts_the_jobs_running_beside_it(tmp_path, monkeypatch):
+    monkeypatch.setenv("INKMOTION_RUN_DIR", str(tmp_path))
+    running = RunningJobs()
+    assert running.others() == 0
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        (tmp_path / str(child.pid)).write_text("2")
+        (tmp_path / "999999999").write_text("1")  # a process long gone: not counted
+        running.enter(1)
+        assert running.others() == 1 and not (tmp_path / "999999999").exists()
+        monkeypatch.delenv("INKMOTION_THREADS", raising=False)
+        monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+        monkeypatch.delenv("INKMOTION_JOB_SLOTS", raising=False)
+        assert default_threads() == threads_per_job(2)
+    finally:
+        child.kill()
+        child.wait()
+        running.leave()
+    assert not (tmp_path / str(os.getpid())).exists()
+
+
+def test_report_records_the_thread_count(tmp_path):
+    from inkmotion.jobs.shell import run_job
+
+    report = run_job(_fit_specs(["text:a"], 3)[0], tmp_path / "one")
+    assert report["threads"] == torch.get_num_threads()
+    assert json.loads((Path(tmp_path) / "one" / "report.json").read_text())["threads"] >= 1
+
+
+def test_balanced_chunks_fill_every_worker_and_keep_each_item_once(tmp_path):
+    from inkmotion.evaluation.benchmark import balanced_chunks
+
+    sources = []
+    for k in range(20):
+        f = tmp_path / f"t{k}.json"
+        f.write_text("x" * (100 * (k + 1)))
+        sources.append(str(f))
+    chunks = balanced_chunks(sources, jobs=2, batch=9)
+    assert len(chunks) % 2 == 0 and all(len(c) <= 9 for c in chunks)
+    assert sorted(i for c in chunks for i in c) == list(range(20))
+    weights = [sum(k + 1 for k in c) for c in chunks]
+    assert max(weights) - min(weights) <= 20  # each carries a similar share of the work
+    assert balanced_chunks(sources, jobs=2, batch=1) == [[i] for i in range(20)]
+
+
+def test_only_jobs_of_one_kind_and_the_same_parameters_batch():
+    from inkmotion.jobs.shell import batchable
+    from inkmotion.jobs.spec import JobSpec
+
+    a, b = _fit_specs(["text:a", "text:b"], 10)
+    assert batchable([a, b]) and not batchable([a])
+    other = JobSpec(kind="fit", inputs={"drawing": "text:c"}, params={"steps": 11, "size": 128},
+                    record_every=0)
+    assert not batchable([a, other])
