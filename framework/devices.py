@@ -31,6 +31,8 @@ records it too (a resume with another count says so).
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from inkmotion.errors import SpecError
@@ -85,15 +87,20 @@ def _env_int(name: str) -> int | None:
     return int(value) if value.isdigit() and int(value) > 0 else None
 
 
-def default_threads() -> int:
-    """Intra-op threads for a job now (the policy of the module docstring)."""
+def default_threads(running: RunningJobs | None = None) -> int:
+    """Intra-op threads for a job now (the policy of the module docstring). With
+    ``running``, this process is registered there with its count, the look at its
+    neighbours and the registration under one lock: two runs started at the same moment
+    do not both take every core."""
+    running = running or RunningJobs()
     for env in ("INKMOTION_THREADS", "OMP_NUM_THREADS"):
         if (value := _env_int(env)) is not None:
             return value
     slots = _env_int(SLOTS_ENV)
-    if slots is None:
-        slots = 1 + RunningJobs().others()
-    return threads_per_job(slots)
+    if slots is not None:
+        return threads_per_job(slots)
+    with running.locked():
+        return threads_per_job(1 + running.others())
 
 
 def share_cores(slots: int) -> int:
@@ -106,12 +113,18 @@ def share_cores(slots: int) -> int:
     return default_threads()
 
 
-def configure_threads(threads: int | None = None) -> int:
-    """Set torch's intra-op thread count (``None``: :func:`default_threads`) and a single
-    inter-op thread; returns the intra-op count."""
+def configure_threads(threads: int | None = None, running: RunningJobs | None = None) -> int:
+    """Set torch's intra-op thread count (``None``: :func:`default_threads`, registering
+    this process in ``running`` when given) and a single inter-op thread; returns the
+    intra-op count."""
     import torch
 
-    n = threads or default_threads()
+    if running is None:
+        n = threads or default_threads()
+    else:
+        with running.locked():
+            n = threads or default_threads(running)
+            running.enter(n)
     if torch.get_num_threads() != n:
         torch.set_num_threads(n)
     if torch.get_num_interop_threads() != 1:
@@ -135,6 +148,7 @@ class RunningJobs:
             Path(tempfile.gettempdir()) / f"inkmotion-running-{os.getuid()}"
             if hasattr(os, "getuid") else Path(tempfile.gettempdir()) / "inkmotion-running")
         self.folder = Path(base)
+        self._depth = 0
 
     def _live(self) -> list[int]:
         pids = []
@@ -155,6 +169,34 @@ class RunningJobs:
                 pass
             pids.append(pid)
         return pids
+
+    @contextmanager
+    def locked(self) -> Iterator[None]:
+        """Hold the registry's lock (re-entrant in this process): a look at the running
+        jobs and a registration in one step."""
+        if self._depth:
+            self._depth += 1
+            try:
+                yield
+            finally:
+                self._depth -= 1
+            return
+        handle = None
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            handle = open(self.folder / "lock", "a")  # noqa: SIM115 - held for the block
+            import fcntl
+
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except (OSError, ImportError):  # no lock here (read-only, Windows): best effort
+            pass
+        self._depth = 1
+        try:
+            yield
+        finally:
+            self._depth = 0
+            if handle is not None:
+                handle.close()  # releases the lock
 
     def others(self) -> int:
         """How many other processes are running inkmotion jobs now."""

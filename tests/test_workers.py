@@ -269,6 +269,8 @@ def test_a_batch_of_fits_on_one_worker_survives_a_kill_9(worker_pool, service_en
             assert "a batch of 3" in log
             report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
             assert report["steps"] == 900
+            # each resumed from its own checkpoint of the batch (every 50 steps)
+            assert 50 <= report["resumed_from_step"] < 900
     finally:
         pool.stop_all()
 

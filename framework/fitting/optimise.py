@@ -399,12 +399,14 @@ def optimise_together(requests: list[Request], objective: Any) -> list[FitResult
         if step % settings.check_every == 0 and not bool(finite.all()):
             raise _not_finite()
         views.observe(step, ev, batch)
-        for b, r in enumerate(requests):
-            if r.checkpoint is not None and r.checkpoint.due(step):  # type: ignore
-                r.checkpoint.save(step, {  # type: ignore[attr-defined]
+        due = [b for b, r in enumerate(requests)
+               if r.checkpoint is not None and r.checkpoint.due(step)]  # type: ignore
+        if due:
+            item_states = objective.item_states()
+            for b in due:
+                requests[b].checkpoint.save(step, {  # type: ignore[union-attr]
                     **fits[b].state(), "initial_terms": initial[b],
-                    "initial_t_end": initial_t_end[b],
-                    "objective": objective.item_states()[b]})
+                    "initial_t_end": initial_t_end[b], "objective": item_states[b]})
 
     with torch.no_grad():
         last = objective(assemble())

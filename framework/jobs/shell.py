@@ -147,35 +147,36 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
 
     resolved = resolve(spec)
     device = resolve_device(spec.device)
-    threads = configure_threads()
-    seed_everything(spec.seed)
-    group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
-                                               recording_id=recording_id), *observers])
-    total = int(resolved.kind.steps(resolved.params))
-    checkpoints = None
-    if checkpoint is not None:
-        from inkmotion.jobs import checkpoint as ck
-
-        checkpoints = ck.Checkpoints(checkpoint, spec.to_dict(),
-                                     checkpoint_every or ck.EVERY_STEPS,
-                                     checkpoint_s or ck.EVERY_S, now=checkpoint_now)
     running = RunningJobs()
-    running.enter(threads)  # a lone run started meanwhile sees this one
-    with StagingDir(Path(out_dir)) as staging:
-        try:
-            job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
-                      checkpoints=checkpoints)
-            report = dict(resolved.kind.run(job))
-            report["kind"] = spec.kind
-            report["wall_s"] = round(time.perf_counter() - job.started, 3)
-            report["device"] = str(device)
-            report["threads"] = threads
-            record_job(staging.path, resolved.full_spec(), report)
-            group.on_end(report)
-        finally:
-            group.close()  # files complete (or released) before the folder moves
-            running.leave()
-        staging.commit()
+    threads = configure_threads(running=running)  # a lone run started meanwhile sees it
+    try:
+        seed_everything(spec.seed)
+        group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
+                                                   recording_id=recording_id), *observers])
+        total = int(resolved.kind.steps(resolved.params))
+        checkpoints = None
+        if checkpoint is not None:
+            from inkmotion.jobs import checkpoint as ck
+
+            checkpoints = ck.Checkpoints(checkpoint, spec.to_dict(),
+                                         checkpoint_every or ck.EVERY_STEPS,
+                                         checkpoint_s or ck.EVERY_S, now=checkpoint_now)
+        with StagingDir(Path(out_dir)) as staging:
+            try:
+                job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
+                          checkpoints=checkpoints)
+                report = dict(resolved.kind.run(job))
+                report["kind"] = spec.kind
+                report["wall_s"] = round(time.perf_counter() - job.started, 3)
+                report["device"] = str(device)
+                report["threads"] = threads
+                record_job(staging.path, resolved.full_spec(), report)
+                group.on_end(report)
+            finally:
+                group.close()  # files complete (or released) before the folder moves
+            staging.commit()
+    finally:
+        running.leave()
     return report
 
 
@@ -239,9 +240,8 @@ def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
         return [_alone(j, record, checkpoint_every, checkpoint_s, checkpoint_now) for j in jobs]
     resolved = [resolve(spec) for spec in specs]
     device = resolve_device(specs[0].device)
-    threads = configure_threads()
     running = RunningJobs()
-    running.enter(threads)
+    threads = configure_threads(running=running)
     groups: list[ObserverGroup] = []
     try:
         with ExitStack() as stack:
