@@ -17,7 +17,8 @@ the cores this process may use divided by the jobs that share them, at most
 ``MAX_DEFAULT_THREADS``. Who shares them: a worker or benchmark with n slots says so in
 ``INKMOTION_JOB_SLOTS`` (each of its n processes gets cores // n); a lone ``inkmotion run``
 counts the other inkmotion jobs running on this machine when it starts (a registry of
-pid files, :class:`RunningJobs`). Inter-op threads are 1 (nothing here runs ops
+pid files, :class:`RunningJobs`, read and written under one lock), and lowers its count to
+its share when others start after it (:class:`ShareCores`). Inter-op threads are 1 (nothing here runs ops
 concurrently), and a process whose slots share the cores asks OpenMP not to spin
 (``OMP_WAIT_POLICY=PASSIVE``, before torch loads).
 
@@ -85,6 +86,54 @@ def threads_per_job(slots: int = 1, cores: int | None = None) -> int:
 def _env_int(name: str) -> int | None:
     value = os.environ.get(name, "").strip()
     return int(value) if value.isdigit() and int(value) > 0 else None
+
+
+def lone() -> bool:
+    """Whether this job's thread count comes from its neighbours at start (no override, no
+    slots): then :class:`ShareCores` may lower it when others start later."""
+    return all(_env_int(e) is None for e in ("INKMOTION_THREADS", "OMP_NUM_THREADS",
+                                             SLOTS_ENV))
+
+
+class ShareCores:
+    """A job observer for a lone run that took the cores it found free: every few seconds
+    it looks at the registry, and when other inkmotion jobs have started since, it lowers
+    torch's thread count to this job's share (never raises it). Threads that outnumber the
+    cores wait on each other at every barrier, so the run that came first would otherwise
+    be twice as slow. The change is recorded (``threads_lowered`` in report.json: the step
+    and the new count): from that step on, the run is no longer bit for bit the run of its
+    first thread count."""
+
+    def __init__(self, running: RunningJobs, threads: int, every_s: float = 2.0) -> None:
+        import time
+
+        self.running, self.threads, self.every_s = running, threads, every_s
+        self._next = time.monotonic() + every_s
+        self.lowered: list[dict[str, int]] = []
+
+    def on_step(self, state: Any) -> None:
+        import time
+
+        now = time.monotonic()
+        if now < self._next or self.threads <= 1:
+            return
+        self._next = now + self.every_s
+        share = threads_per_job(1 + self.running.others())
+        if share < self.threads:
+            import logging
+
+            import torch
+
+            torch.set_num_threads(share)
+            self.threads = share
+            self.lowered.append({"step": int(state.step), "threads": share})
+            logging.getLogger("inkmotion").info(
+                "other inkmotion jobs started: %d torch thread(s) from step %d", share,
+                state.step)
+
+    def on_end(self, report: dict) -> None:
+        if self.lowered:
+            report["threads_lowered"] = self.lowered
 
 
 def default_threads(running: RunningJobs | None = None) -> int:

@@ -208,3 +208,30 @@ def test_only_jobs_of_one_kind_and_the_same_parameters_batch():
     other = JobSpec(kind="fit", inputs={"drawing": "text:c"}, params={"steps": 11, "size": 128},
                     record_every=0)
     assert not batchable([a, other])
+
+
+def test_a_lone_run_makes_room_for_a_job_that_starts_after_it(tmp_path, monkeypatch):
+    from types import SimpleNamespace
+
+    from inkmotion.devices import ShareCores
+
+    monkeypatch.setenv("INKMOTION_RUN_DIR", str(tmp_path))
+    before = torch.get_num_threads()
+    share = ShareCores(RunningJobs(), threads=4, every_s=0.0)
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        share.on_step(SimpleNamespace(step=3))
+        assert share.lowered == []  # alone: nothing to share
+        (tmp_path / str(child.pid)).write_text("1")  # a job started after this one
+        share.on_step(SimpleNamespace(step=7))
+        expected = threads_per_job(2)
+        if expected < 4:
+            assert share.lowered == [{"step": 7, "threads": expected}]
+            assert torch.get_num_threads() == expected
+            report: dict = {}
+            share.on_end(report)
+            assert report["threads_lowered"] == share.lowered
+    finally:
+        child.kill()
+        child.wait()
+        torch.set_num_threads(before)

@@ -142,7 +142,13 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
     :class:`inkmotion.errors.InkmotionError` subclasses for user-caused failures (bad
     input, unknown plugin); nothing is left in ``out_dir`` then.
     """
-    from inkmotion.devices import RunningJobs, configure_threads, resolve_device
+    from inkmotion.devices import (
+        RunningJobs,
+        ShareCores,
+        configure_threads,
+        lone,
+        resolve_device,
+    )
     from inkmotion.outputs import StagingDir
 
     resolved = resolve(spec)
@@ -151,8 +157,11 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
     threads = configure_threads(running=running)  # a lone run started meanwhile sees it
     try:
         seed_everything(spec.seed)
+        # a lone run that took every free core makes room for runs that start after it
+        share = [ShareCores(running, threads)] if lone() else []
         group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
-                                                   recording_id=recording_id), *observers])
+                                                   recording_id=recording_id), *observers,
+                               *share])
         total = int(resolved.kind.steps(resolved.params))
         checkpoints = None
         if checkpoint is not None:
@@ -170,6 +179,8 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
                 report["wall_s"] = round(time.perf_counter() - job.started, 3)
                 report["device"] = str(device)
                 report["threads"] = threads
+                for observer in share:
+                    observer.on_end(report)  # before report.json: the lowered threads
                 record_job(staging.path, resolved.full_spec(), report)
                 group.on_end(report)
             finally:
