@@ -17,10 +17,10 @@ the cores this process may use divided by the jobs that share them, at most
 ``MAX_DEFAULT_THREADS``. Who shares them: a worker or benchmark with n slots says so in
 ``INKMOTION_JOB_SLOTS`` (each of its n processes gets cores // n); a lone ``inkmotion run``
 counts the other inkmotion jobs running on this machine when it starts (a registry of
-pid files, :class:`RunningJobs`, read and written under one lock), and lowers its count to
-its share when others start after it (:class:`ShareCores`). Inter-op threads are 1 (nothing here runs ops
-concurrently), and a process whose slots share the cores asks OpenMP not to spin
-(``OMP_WAIT_POLICY=PASSIVE``, before torch loads).
+pid files, :class:`RunningJobs`, read and written under one lock), and lowers its count
+to its share when others start after it (:class:`ShareCores`). Inter-op threads are 1
+(nothing here runs ops concurrently), and a process whose slots share the cores asks
+OpenMP not to spin (``OMP_WAIT_POLICY=PASSIVE``, before torch loads).
 
 The thread count is part of a CPU result: torch's large reductions and MKL's small matrix
 products split their work by thread, so 1 and 2 threads give plans that differ in the last

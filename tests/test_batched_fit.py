@@ -217,7 +217,8 @@ def test_a_lone_run_makes_room_for_a_job_that_starts_after_it(tmp_path, monkeypa
 
     monkeypatch.setenv("INKMOTION_RUN_DIR", str(tmp_path))
     before = torch.get_num_threads()
-    share = ShareCores(RunningJobs(), threads=4, every_s=0.0)
+    alone = threads_per_job(1)
+    share = ShareCores(RunningJobs(), threads=alone, every_s=0.0)
     child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
     try:
         share.on_step(SimpleNamespace(step=3))
@@ -225,7 +226,7 @@ def test_a_lone_run_makes_room_for_a_job_that_starts_after_it(tmp_path, monkeypa
         (tmp_path / str(child.pid)).write_text("1")  # a job started after this one
         share.on_step(SimpleNamespace(step=7))
         expected = threads_per_job(2)
-        if expected < 4:
+        if expected < alone:
             assert share.lowered == [{"step": 7, "threads": expected}]
             assert torch.get_num_threads() == expected
             report: dict = {}
