@@ -105,12 +105,10 @@ class BatchObjective(Objective):
                                           self.p.smooth_over, index["path_item"], self.count)
         terms["canvas"] = canvas_costs(batch.points, index["point_item"], index["sizes"],
                                        self.count)
-        total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
-                 + self.p.w_canvas * terms["canvas"])
         if self.trace_union is not None:
             terms["trace"] = self.trace_union(segments, layout, step)
-            total = total + self.p.w_trace * terms["trace"]
-        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities)
+        return Evaluation(self.weighted(terms, image), terms, t_end, rendered, kin.positions,
+                          kin.velocities)
 
     def item_states(self) -> list[dict]:
         """Each drawing's :meth:`Objective.state` (for its own checkpoint)."""

@@ -104,12 +104,19 @@ class Objective:
         terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma, layout,
                                          self.p.smooth_over)
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
-        total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
-                 + self.p.w_canvas * terms["canvas"])
         if self.trace is not None:
             terms["trace"] = self.trace(segments, layout, step)
+        return Evaluation(self.weighted(terms, image), terms, t_end, rendered, kin.positions,
+                          kin.velocities)
+
+    def weighted(self, terms: dict[str, torch.Tensor], image: torch.Tensor) -> torch.Tensor:
+        """λ·L_smooth + w_I·Σ L_I + w_c·canvas term (+ w_trace·L_trace when ``terms`` has
+        it), from the terms and the image losses' sum ``image``."""
+        total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
+                 + self.p.w_canvas * terms["canvas"])
+        if "trace" in terms:
             total = total + self.p.w_trace * terms["trace"]
-        return Evaluation(total, terms, t_end, rendered, kin.positions, kin.velocities)
+        return total
 
     def _motion(self, batch: PlanBatch) -> tuple[GridLayout, torch.Tensor, Any, torch.Tensor]:
         """The forward pass up to the image: the grid's layout, T_end (P,), the kinematics
