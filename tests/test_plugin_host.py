@@ -119,3 +119,59 @@ def test_loading_every_plugin_imports_no_torch() -> None:
             "('inkmotion.rendering', 'inkmotion.image_losses', 'inkmotion.sigma_lognormal'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_a_blocked_built_in_is_not_loaded_and_a_third_party_plugin_takes_its_name(
+        tmp_path, monkeypatch) -> None:
+    """INKMOTION_DISABLE_PLUGINS=raster (pluggy's set_blocked by entry-point name): the
+    built-in renderer module is never imported, ``inkmotion plugins`` lists it as disabled,
+    asking for it says why, and another package's renderer named "raster" registers, where
+    without the block the two names would clash."""
+    (tmp_path / "tp_raster.py").write_text(textwrap.dedent('''
+        from inkmotion.plugin_host import hookimpl
+
+        class MyRaster:
+            name = "raster"
+            description = "A third-party renderer that replaces the built-in."
+            def __call__(self, segments, widths, height, width):
+                import torch
+                return torch.ones(height, width)
+
+        @hookimpl
+        def inkmotion_renderers():
+            return [MyRaster()]
+    '''))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import tp_raster
+
+    clash = PluginHost()
+    clash.load_entry_points()
+    with pytest.raises(PluginError, match="Two renderer plugins are named 'raster'"):
+        clash.register(tp_raster, name="tp_raster", origin="thirdparty")
+
+    monkeypatch.setenv("INKMOTION_DISABLE_PLUGINS", "raster, nosuchplugin")
+    h = PluginHost()
+    with pytest.warns(UserWarning, match="'nosuchplugin', which no installed plugin has"):
+        h.load_entry_points()
+    assert "raster" not in h.plugins("renderer")
+    assert [(d.name, d.error) for d in h.disabled] == [
+        ("raster", "disabled by INKMOTION_DISABLE_PLUGINS")]
+    with pytest.raises(PluginError, match="switched off by INKMOTION_DISABLE_PLUGINS"):
+        h.get("renderer", "raster")
+    h.register(tp_raster, name="tp_raster", origin="thirdparty")
+    assert h.get("renderer", "raster")(None, None, 2, 2).sum() == 4
+    sys.modules.pop("tp_raster", None)
+
+
+def test_plugins_lists_a_disabled_plugin() -> None:
+    import json
+    import os
+    import subprocess
+
+    env = {**os.environ, "INKMOTION_DISABLE_PLUGINS": "spray"}
+    res = subprocess.run([sys.executable, "-m", "inkmotion", "plugins", "--json"], env=env,
+                         capture_output=True, text=True, check=True)
+    rows = json.loads(res.stdout)
+    assert {"kind": "?", "name": "spray", "origin": "inkmotion (inkmotion.plugins.spray)",
+            "description": "disabled", "error": "disabled by INKMOTION_DISABLE_PLUGINS"} in rows
+    assert not any(r["kind"] == "renderer" and r["name"] == "spray" for r in rows)

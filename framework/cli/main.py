@@ -59,7 +59,8 @@ def plugins_cmd(
         return
     table = Table("kind", "name", "origin", "description")
     for r in rows:
-        desc = r.description if r.error is None else f"[red]failed to load: {r.error}[/]"
+        desc = (r.description if r.error is None else f"[yellow]{r.error}[/]"
+                if r.description == "disabled" else f"[red]failed to load: {r.error}[/]")
         table.add_row(r.kind, r.name, r.origin, desc)
     out.print(table)
 

@@ -7,6 +7,11 @@ objects each hook returns against their kind's protocol, names unique per kind):
 that fails any check is unregistered again, recorded as broken with the reason, and
 ``inkmotion plugins`` reports it; one bad third-party plugin never takes the command line
 down. Loading the built-ins imports no torch (their heavy parts load on first use).
+
+A user switches plugins off by entry-point name (the module names ``inkmotion plugins``
+shows in its origin column, e.g. ``raster`` for ``inkmotion.plugins.raster``) in
+``INKMOTION_DISABLE_PLUGINS`` (comma-separated), like pluggy's ``set_blocked``: a blocked
+module is never imported, so a third-party plugin can take the name of a built-in.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from inkmotion.plugin_host.hookspecs import KIND_HOOKS, PROJECT
 from inkmotion.plugin_host.protocols import check_plugin_object
 
 ENTRY_POINT_GROUP = "inkmotion"
+#: comma-separated entry-point names of plugins not to load (module docstring)
+DISABLE_ENV = "INKMOTION_DISABLE_PLUGINS"
 
 
 @dataclass(frozen=True)
@@ -48,6 +55,7 @@ class PluginHost:
         self.broken: list[PluginInfo] = []
         self._objects: dict[str, dict[str, Any]] = {kind: {} for kind in KIND_HOOKS}
         self._origins: dict[tuple[str, str], str] = {}  # (kind, name) -> origin
+        self.disabled: list[PluginInfo] = []  # blocked by DISABLE_ENV, never imported
 
     def load_entry_points(self, group: str = ENTRY_POINT_GROUP) -> None:
         """Import and register every module of the entry-point group.
@@ -56,9 +64,24 @@ class PluginHost:
         object that breaks its protocol, a name another package already registered) is
         recorded as broken with the reason and skipped, with a warning.
         """
-        for ep in sorted(entry_points(group=group), key=lambda e: e.name):
+        import os
+
+        blocked = {n.strip() for n in os.environ.get(DISABLE_ENV, "").split(",") if n.strip()}
+        for name in blocked:
+            self.pm.set_blocked(name)
+        found = sorted(entry_points(group=group), key=lambda e: e.name)
+        unknown = sorted(blocked - {ep.name for ep in found})
+        if unknown and group == ENTRY_POINT_GROUP:
+            warnings.warn(f"{DISABLE_ENV} names {', '.join(map(repr, unknown))}, which no "
+                          f"installed plugin has; entry points are: "
+                          f"{', '.join(ep.name for ep in found)}.", stacklevel=2)
+        for ep in found:
             dist = ep.dist.name if ep.dist is not None else "?"
             origin = f"{dist} ({ep.value})"
+            if self.pm.is_blocked(ep.name):
+                self.disabled.append(PluginInfo("?", ep.name, origin, "disabled",
+                                                f"disabled by {DISABLE_ENV}"))
+                continue
             try:
                 module = ep.load()
                 self.register(module, name=ep.name, origin=origin)
@@ -141,6 +164,11 @@ class PluginHost:
         available = self.plugins(kind)
         if name in available:
             return available[name]
+        off = [d for d in self.disabled if d.name == name]
+        if off:
+            raise PluginError(f"The {kind} plugin {name!r} is switched off by {DISABLE_ENV}; "
+                              f"remove it from there or choose another: "
+                              f"{', '.join(sorted(available)) or 'none'}.")
         broken = [b for b in self.broken if b.name == name]
         if broken:
             raise PluginError(f"The {kind} plugin {name!r} failed to load ({broken[0].error}).")
@@ -160,7 +188,7 @@ class PluginHost:
             for kind in KIND_HOOKS
             for obj in self.plugins(kind).values()
         ]
-        return rows + self.broken
+        return rows + self.broken + self.disabled
 
 
 def _one_line(exc: BaseException) -> str:
