@@ -43,21 +43,27 @@ def _dist(tmp_path, group: str, entries: dict[str, str]) -> None:
     (info / "entry_points.txt").write_text(f"[{group}]\n{lines}\n")
 
 
-def test_third_party_and_broken_plugins(tmp_path, monkeypatch) -> None:
-    (tmp_path / "tp_good.py").write_text(textwrap.dedent('''
+def _renderer_module(path, name: str, description: str, image: str) -> None:
+    """A third-party plugin module with one renderer ``name`` returning ``image``."""
+    path.write_text(textwrap.dedent(f'''
         from inkmotion.plugin_host import hookimpl
 
-        class Blank:
-            name = "blank"
-            description = "Renders nothing (a third-party example)."
+        class Renderer:
+            name = {name!r}
+            description = {description!r}
             def __call__(self, segments, widths, height, width):
                 import torch
-                return torch.zeros(height, width)
+                return {image}
 
         @hookimpl
         def inkmotion_renderers():
-            return [Blank()]
+            return [Renderer()]
     '''))
+
+
+def test_third_party_and_broken_plugins(tmp_path, monkeypatch) -> None:
+    _renderer_module(tmp_path / "tp_good.py", "blank", "Renders nothing (a third-party "
+                     "example).", "torch.zeros(height, width)")
     (tmp_path / "tp_broken.py").write_text("import not_a_real_module_xyz\n")
     _dist(tmp_path, "inkmotion_test", {"good": "tp_good", "broken": "tp_broken"})
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -127,20 +133,8 @@ def test_a_blocked_built_in_is_not_loaded_and_a_third_party_plugin_takes_its_nam
     built-in renderer module is never imported, ``inkmotion plugins`` lists it as disabled,
     asking for it says why, and another package's renderer named "raster" registers, where
     without the block the two names would clash."""
-    (tmp_path / "tp_raster.py").write_text(textwrap.dedent('''
-        from inkmotion.plugin_host import hookimpl
-
-        class MyRaster:
-            name = "raster"
-            description = "A third-party renderer that replaces the built-in."
-            def __call__(self, segments, widths, height, width):
-                import torch
-                return torch.ones(height, width)
-
-        @hookimpl
-        def inkmotion_renderers():
-            return [MyRaster()]
-    '''))
+    _renderer_module(tmp_path / "tp_raster.py", "raster", "A third-party renderer that "
+                     "replaces the built-in.", "torch.ones(height, width)")
     monkeypatch.syspath_prepend(str(tmp_path))
     import tp_raster
 
