@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 @dataclass
 class FitParams:
-    """Parameters of a fit; defaults are the authors' (DESIGN.md § Fitting defaults) except
+    """Parameters of a fit; defaults are the authors' except
     where ``inkmotion benchmark`` over the real tags said otherwise, at the authors' plan
     density (DCE relevance 2.5, 29–32 sub-movements on the paper's tags): 600 steps (300
     left T_end at 0.50–0.52× and the max Chamfer at 5–7 px; 600 reach 0.47–0.49× and
@@ -130,7 +130,7 @@ class FitKind:
     Params = FitParams
     examples = (
         "inkmotion run fit text:hello --out results/hello",
-        "inkmotion run fit ../shared/data/gml/49867.json --out results/49867 --steps 300",
+        "inkmotion run fit tags/49867.json --out results/49867 --steps 300",
         "inkmotion run fit tag.gml --out results/smoother --lambda 150 --size 500",
         "inkmotion run fit tag.gml --out results/sparse --dce-relevance 5",
         "inkmotion run fit tag.gml --out results/thirty --targets 30",

@@ -1,7 +1,7 @@
 """Loss terms of the compound objective λ·L_smooth + w_I·L_I (+ a canvas term).
 
 L_smooth = T_end/m + w_σ·Var[Δt]  per path (paper § Results; T_end normalised by m so λ
-does not depend on the number of targets, DESIGN.md), averaged over paths: the authors'
+does not depend on the number of targets), averaged over paths: the authors'
 form (``over="path"``). ``over="drawing"`` normalises the drawing's total time by its total
 number of sub-movements instead, Σ_p T_end_p / Σ_p m_p + w_σ·mean_p Var(Δt_p): every
 overlap Δt_i then feels the same pull T_i/M towards a shorter drawing, where the per-path

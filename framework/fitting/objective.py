@@ -2,10 +2,10 @@
 
 One evaluation is the hot loop's forward pass: ΣΛ kinematics on the fitting grid
 (n_p = samples_per_move·m_p) → Hermite Bézier segments (S, 4, D), a 3-D plan's radius
-included → render → image losses, plus the smoothing cost (DESIGN.md § Fitting defaults)
+included → render → image losses, plus the smoothing cost (the authors' defaults)
 and a term keeping targets on the canvas.
 
-No host synchronisation (DESIGN.md § Devices): the grid's index structure (a
+No host synchronisation: the grid's index structure (a
 :class:`~inkmotion.sigma_lognormal.batch.GridLayout`) is built on the first call, with a
 static kinematics window (wide enough for any plan within the optimiser's clamps) and the
 renderer's static budgets where ``static``; a non-finite total is returned as such (the
@@ -29,7 +29,7 @@ from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.kinematics import evaluate_kinematics, plan_window, uniform_times
 from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
 
-#: the optimiser's clamps Δt ≥ 0.1 and Ac ≤ 0.1 (DESIGN.md § Fitting defaults): a static
+#: the optimiser's clamps Δt ≥ 0.1 and Ac ≤ 0.1 (the authors' defaults): a static
 #: kinematics window is planned wide enough for any plan within them
 DELTA_T_MIN = DELTA_T_RANGE[0]
 AC_MAX = AC_RANGE[1]
@@ -43,7 +43,7 @@ TraceTerm = Callable[[torch.Tensor, GridLayout, "int | None"], torch.Tensor]
 
 @dataclass(frozen=True)
 class Weights:
-    """Weights of the compound objective (defaults: DESIGN.md, λ tuned to 20)."""
+    """Weights of the compound objective (defaults: the authors', λ tuned to 20)."""
 
     lambda_smooth: float = 20.0
     w_image: float = 200.0

@@ -3,7 +3,7 @@
 Each step evaluates the :class:`~inkmotion.fitting.objective.Objective` (ΣΛ kinematics →
 Hermite Bézier segments → render → image losses + λ·L_smooth + canvas term), then takes an
 Adam step with per-parameter learning rates and a cosine decay, and applies the clamps
-Δt ∈ [0.1, 0.9], δ ∈ [−π/2, π/2], Ac ∈ [1e-4, 0.1] (DESIGN.md § Fitting defaults).
+Δt ∈ [0.1, 0.9], δ ∈ [−π/2, π/2], Ac ∈ [1e-4, 0.1] (the authors' defaults).
 
 A 3-D plan (x, y, r: the stroke radius in px, the 2.5D extension) is optimised as two
 leaves, the targets' x, y (N, 2) at ``lr_points`` and their radii r (N, 1) at
@@ -35,7 +35,7 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 @dataclass(frozen=True)
 class OptimiserSettings:
-    """Adam settings of a fit (defaults: the authors', DESIGN.md § Fitting defaults)."""
+    """Adam settings of a fit (defaults: the authors')."""
 
     steps: int = 300
     lr_points: float = 2.0

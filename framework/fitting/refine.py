@@ -1,7 +1,7 @@
 """Editing a fitted motor plan between fit stages: a virtual target inserted where the fit
 misses the input most, two sub-movements merged where the fit made them one.
 
-A ΣΛ motor plan is sparse by design (DESIGN.md § Plan density): about one virtual target
+A ΣΛ motor plan is sparse by design: about one virtual target
 per salient stroke. DCE places the targets from the geometry alone; after a first fit
 stage the residual says where the plan lacks a stroke (a sharp hook that the overlapping
 lognormals cut short), and the overlaps say where it has one too many (Δt_i pinned at its
@@ -254,8 +254,8 @@ def insert_targets(plans: list[MotorPlan], misses: list[Miss]) -> list[MotorPlan
     return out
 
 
-#: a plan grows by at most this share of its sub-movements in one budget (DESIGN.md § Plan
-#: density: about one target per salient stroke, so within 25 % of the authors' density)
+#: a plan grows by at most this share of its sub-movements in one budget (a plan stays
+#: sparse: about one target per salient stroke, so within 25 % of the authors' density)
 MAX_GROWTH = 0.25
 
 

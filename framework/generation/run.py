@@ -3,7 +3,7 @@ else), initialise, optimise the ΣΛ plan through the renderer against the CLIP 
 the artifacts.
 
 Both kinds share :func:`optimise_generation` (the compound objective λ·L_smooth + w_I·L_I of
-DESIGN.md with CLIP image losses, optionally with the stroke radius as a third coordinate,
+a fit with CLIP image losses, optionally with the stroke radius as a third coordinate,
 2.5D) and :func:`write_generation` (the artifacts of a fit, plus init.json / init.png).
 The report carries ``clip_weights`` — "random" when the job was asked to run on randomly
 initialised weights — and the shell copies it into job.json (``provenance``), so a result

@@ -3,7 +3,7 @@
 A 2-D trajectory's segments (S, 4, 2) are one ``<path>``, ``M p0 C c1 c2 p3 C ...``
 (consecutive segments share their end points), stroked with the trajectory's width in px.
 A 3-D trajectory's segments (S, 4, 3) carry the stroke radius in px (the 2.5D plans of
-DESIGN.md), which an SVG stroke cannot vary along one path: a drawing with one is written
+2.5D plans), which an SVG stroke cannot vary along one path: a drawing with one is written
 as brush outlines (:mod:`inkmotion.outputs.brush_svg`): a layer of filled regions, the
 exact area each brush covers (a 2-D trajectory there is a brush of constant radius w/2),
 and a layer of centre lines for pen plotters. Otherwise everything is stroked black, no

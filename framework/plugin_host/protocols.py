@@ -92,7 +92,7 @@ class Renderer(Plugin, Protocol):
     ) -> torch.Tensor:
         """Render cubic segments to coverage (H, W) in [0, 1]: segments (S, 4, 2) with
         widths (S,), or (S, 4, 3) whose third coordinate is the radius in px (widths then
-        ignored; the 2.5D plans of DESIGN.md, the width varying along the stroke).
+        ignored; the 2.5D plans, the width varying along the stroke).
 
         Optional: ``session(device, static=None)`` returning a callable with the same
         signature that plans its sizes once per fit (static shapes, no device reads on a

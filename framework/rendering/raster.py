@@ -15,7 +15,7 @@ pixels × segments. The device and dtype follow the inputs.
 
 Segments are (S, 4, 2) with widths (S,): r = w/2 for every piece of segment s; or
 (S, 4, 3), the third coordinate being the stroke radius in px (the 2.5D plans of
-DESIGN.md; widths are then ignored). There the radius is a cubic in u like x and y,
+2.5D plans; widths are then ignored). There the radius is a cubic in u like x and y,
 evaluated with them at the piece's two ends (r_a, r_b, clamped at 0), and interpolated
 along the piece at the pixel's projection t:
 
@@ -31,7 +31,7 @@ Two paths compute the same image:
   around a piece): a few reads of the device per call, free on a CPU.
 - :func:`render_segments_static` uses a :class:`RasterBudget` planned once
   (:func:`plan_budget`) with headroom, so its shapes are static and it never reads the
-  device (DESIGN.md § Devices). When the data outgrow the budget it still draws, coarser
+  device (static shapes for accelerators). When the data outgrow the budget it still draws, coarser
   (fewer pieces) or clipped (smaller patches), and raises a flag on the device;
   :class:`RasterSession` keeps the budget and replans when asked after the flag was set.
 """

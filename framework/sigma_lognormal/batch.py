@@ -7,7 +7,7 @@ these flat tensors as its leaves; :meth:`PlanBatch.to_plans` turns them back int
 The index structure that follows from the sub-movement counts m_p alone (which path a
 sub-movement or a sample belongs to, where each block starts, ...) is a
 :class:`GridLayout`: built once per fit, so a step neither recomputes it nor reads a size
-back from the device (DESIGN.md § Devices: static shapes, no host synchronisation).
+back from the device (static shapes, no host synchronisation).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import torch
 from inkmotion.sigma_lognormal.params import end_times, onsets, sigma_mu
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
-#: samples per sub-movement of the fitting grid, n_p = 5·m_p (DESIGN.md)
+#: samples per sub-movement of the fitting grid, n_p = 5·m_p
 SAMPLES_PER_MOVE = 5
 
 

@@ -1,4 +1,4 @@
-"""ΣΛ timing parameters from the optimisable reparametrisation (DESIGN.md, errata applied).
+"""ΣΛ timing parameters from the optimisable reparametrisation (the paper's, errata applied).
 
 σ_i = sqrt(−ln(1 − Ac_i)),  μ_i = 3σ_i − ln((e^{6σ_i} − 1) / T_i)
 so that the ±3σ window of each lognormal lasts exactly T_i: e^{μ+3σ} − e^{μ−3σ} = T_i.
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import torch
 
-#: the optimiser's clamps (DESIGN.md § Fitting defaults); the renderer and kinematics plan
+#: the optimiser's clamps (the authors' defaults); the renderer and kinematics plan
 #: their static sizes from the same bounds
 DELTA_T_RANGE = (0.1, 0.9)
 DELTA_RANGE = (-math.pi / 2, math.pi / 2)

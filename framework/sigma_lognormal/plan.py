@@ -82,7 +82,7 @@ class MotorPlan:
     def with_radius(self, radius: float) -> MotorPlan:
         """This plan lifted to 3-D (2.5D): points (m+1, 2) → (m+1, 3) with the constant
         stroke radius ``radius`` px as third coordinate, which then moves like a 1-D
-        lognormal sub-movement (DESIGN.md § The ΣΛ model). The other tensors are shared,
+        lognormal sub-movement (the ΣΛ model). The other tensors are shared,
         not copied; a 3-D plan is returned unchanged. ``width`` is kept (a renderer ignores
         it for 3-D segments)."""
         if self.dim == 3:
@@ -170,7 +170,7 @@ class Drawing:
         except (KeyError, TypeError, ValueError, AssertionError, IndexError) as exc:
             raise InputError(
                 f"{source}: not a valid plan.json ({type(exc).__name__}: {exc}); "
-                "write it with inkmotion or follow the format in DESIGN.md."
+                "write it with inkmotion or follow the plan.json format in the README."
             ) from exc
         for p in plans:
             if not all(torch.isfinite(getattr(p, k)).all() for k in _TENSORS):
