@@ -172,21 +172,9 @@ def fit_params(steps: int | None, size: int | None, params: dict[str, Any] | Non
 
 def default_jobs(n_items: int) -> int:
     """min(cores, items, 4)."""
-    return max(1, min(_cores(), n_items, 4))
-
-
-def _cores() -> int:
     from inkmotion.devices import available_cores
 
-    return available_cores()
-
-
-def worker_threads(jobs: int) -> int:
-    """torch threads per worker process: the thread policy of :mod:`inkmotion.devices` for
-    ``jobs`` jobs sharing the cores."""
-    from inkmotion.devices import threads_per_job
-
-    return threads_per_job(jobs)
+    return max(1, min(available_cores(), n_items, 4))
 
 
 # ----------------------------------------------------------------------------- one item
@@ -340,6 +328,7 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     """
     from rich.console import Console
 
+    from inkmotion.devices import threads_per_job
     from inkmotion.jobs.kind import resolve
     from inkmotion.jobs.spec import JobSpec
 
@@ -356,7 +345,7 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     if batch < 1:
         raise SpecError(f"--batch {batch} must be at least 1.")
     jobs = min(jobs, math.ceil(len(sources) / batch))
-    threads = worker_threads(jobs)
+    threads = threads_per_job(jobs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()

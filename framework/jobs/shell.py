@@ -163,22 +163,13 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
                                                    recording_id=recording_id), *observers,
                                *share])
         total = int(resolved.kind.steps(resolved.params))
-        checkpoints = None
-        if checkpoint is not None:
-            from inkmotion.jobs import checkpoint as ck
-
-            checkpoints = ck.Checkpoints(checkpoint, spec.to_dict(),
-                                         checkpoint_every or ck.EVERY_STEPS,
-                                         checkpoint_s or ck.EVERY_S, now=checkpoint_now)
+        checkpoints = _checkpoints(Together(spec, Path(out_dir), checkpoint=checkpoint),
+                                   checkpoint_every, checkpoint_s, checkpoint_now)
         with StagingDir(Path(out_dir)) as staging:
             try:
                 job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
                           checkpoints=checkpoints)
-                report = dict(resolved.kind.run(job))
-                report["kind"] = spec.kind
-                report["wall_s"] = round(time.perf_counter() - job.started, 3)
-                report["device"] = str(device)
-                report["threads"] = threads
+                report = _finished(job, dict(resolved.kind.run(job)), threads)
                 for observer in share:
                     observer.on_end(report)  # before report.json: the lowered threads
                 record_job(staging.path, resolved.full_spec(), report)
@@ -271,9 +262,7 @@ def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
             for shell, outcome in zip(shells, outcomes, strict=True):
                 if isinstance(outcome, BaseException):
                     continue
-                outcome.update(kind=shell.spec.kind, device=str(device), threads=threads,
-                               batch=len(shells),
-                               wall_s=round(time.perf_counter() - shell.started, 3))
+                _finished(shell, outcome, threads)["batch"] = len(shells)
                 record_job(shell.folder, shell.resolved.full_spec(), outcome)
                 shell.observers.on_end(outcome)
             for group in groups:
@@ -298,6 +287,13 @@ def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
         return [_alone(j, record, checkpoint_every, checkpoint_s, checkpoint_now) for j in jobs]
     finally:
         running.leave()
+
+
+def _finished(job: Job, report: dict, threads: int) -> dict:
+    """The kind's ``report`` with what the shell adds: kind, wall time, device, threads."""
+    report.update(kind=job.spec.kind, wall_s=round(time.perf_counter() - job.started, 3),
+                  device=str(job.device), threads=threads)
+    return report
 
 
 def _checkpoints(job: Together, every: int | None, every_s: float | None, now: Any) -> Any:
