@@ -1,35 +1,16 @@
-"""SVG reader: vector paths and basic shapes into polylines, one stroke per subpath.
+"""Reader "svg": SVG paths and basic shapes, transforms honoured, one stroke per subpath.
 
-Parsing, units, ``viewBox`` and nested ``transform`` attributes are handled by
-`svgelements <https://github.com/meerk40t/svgelements>`_ (``SVG.parse`` reifies every
-transform into the geometry). Every visible shape (``path``, ``polyline``, ``polygon``,
-``line``, ``rect``, ``circle``, ``ellipse``, shapes reached through ``use``) becomes a
-path; each subpath (a ``M`` … run) becomes one stroke. Closed subpaths end at their start
-point. Curves (quadratic, cubic, elliptical arcs) are flattened by adaptive subdivision
-until every interval's midpoint lies within ``tol`` of its chord, where ``tol`` is
-``FLATNESS`` times the drawing's bounding-box diagonal (scale-free, so the same file at
-any size flattens to the same polyline shape). Coordinates are SVG user units, y down.
+The declaration only (files ending in ``.svg``); parsing and curve flattening are
+:mod:`inkmotion.inputs.svg`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
-from inkmotion.errors import InputError
-from inkmotion.geometry.input_file import MAX_FILE_BYTES as DEFAULT_MAX_FILE_BYTES
-from inkmotion.geometry.input_file import checked_input_file, reader_boundary
-from inkmotion.geometry.traces import MAX_POINTS, Traces
+from inkmotion.geometry.traces import Traces
+from inkmotion.inputs.svg import read_svg
 from inkmotion.plugin_host import hookimpl
-
-#: files larger than this are refused before parsing (bytes)
-MAX_FILE_BYTES = DEFAULT_MAX_FILE_BYTES
-#: flattening tolerance as a fraction of the drawing's bounding-box diagonal
-FLATNESS = 2e-4
-#: deepest subdivision per curve segment (2**MAX_DEPTH intervals at most)
-MAX_DEPTH = 12
 
 
 class SvgReader:
@@ -43,129 +24,9 @@ class SvgReader:
         return Path(source).suffix.lower() == ".svg"
 
     def read(self, source: str) -> Traces:
-        """Parse ``source``; every malformed or degenerate input raises :class:`InputError`."""
+        """Parse ``source`` (:func:`inkmotion.inputs.svg.read_svg`); every malformed or
+        degenerate input raises :class:`InputError`."""
         return read_svg(source)
-
-
-def read_svg(source: str) -> Traces:
-    """Read an SVG file into validated :class:`Traces` in user units (y down)."""
-    path = checked_input_file(source, "SVG paths", MAX_FILE_BYTES)
-    with reader_boundary(source, "SVG", "check that it is a complete, well-formed SVG file."):
-        import svgelements as se
-
-        strokes = _flatten(se.SVG.parse(str(path)), se, source)
-    if not strokes:
-        raise InputError(
-            f"{source}: the SVG holds no paths or shapes, so there is nothing to draw; "
-            "convert text and images to paths first."
-        )
-    return Traces(strokes, source=source, meta={"format": "svg"}).validated()
-
-
-def _flatten(svg: Any, se: Any, source: str) -> list[np.ndarray]:
-    """All visible shapes of ``svg`` as polylines (one per subpath)."""
-    paths = []
-    for el in svg.elements():
-        if not isinstance(el, se.Shape):
-            continue
-        if str(el.values.get("visibility", "visible")) == "hidden":
-            continue
-        path = el if isinstance(el, se.Path) else se.Path(el)
-        if len(path) == 0:
-            continue
-        paths.append(path)
-    if not paths:
-        return []
-    boxes = [p.bbox() for p in paths]
-    boxes = [b for b in boxes if b is not None]
-    if not boxes:
-        return []
-    lo = np.min([b[:2] for b in boxes], axis=0)
-    hi = np.max([b[2:] for b in boxes], axis=0)
-    tol = FLATNESS * max(float(np.hypot(*(hi - lo))), 1e-9)
-    strokes: list[np.ndarray] = []
-    count = 0
-    for path in paths:
-        for stroke in _path_strokes(path, se, tol):
-            count += len(stroke)
-            if count > MAX_POINTS:
-                raise InputError(
-                    f"{source}: more than {MAX_POINTS} points after flattening curves, the "
-                    "limit; simplify the drawing or split it into several inputs."
-                )
-            strokes.append(stroke)
-    return strokes
-
-
-def _path_strokes(path: Any, se: Any, tol: float) -> list[np.ndarray]:
-    """One polyline per subpath of ``path``; curves subdivided to tolerance ``tol``."""
-    strokes: list[np.ndarray] = []
-    current: list[np.ndarray] = []
-    start: np.ndarray | None = None
-
-    def finish() -> None:
-        if current:
-            strokes.append(np.vstack(current))
-
-    for seg in path:
-        if isinstance(seg, se.Move):
-            finish()
-            start = np.array([[seg.end.x, seg.end.y]], dtype=np.float64)
-            current = [start]
-            continue
-        if seg.start is None or seg.end is None:
-            continue
-        if not current:  # a path without a leading M: start where the segment starts
-            start = np.array([[seg.start.x, seg.start.y]], dtype=np.float64)
-            current = [start]
-        if isinstance(seg, (se.Line, se.Close)):
-            current.append(np.array([[seg.end.x, seg.end.y]], dtype=np.float64))
-        else:
-            current.append(flatten_segment(_sampler(seg), tol)[1:])
-    finish()
-    return strokes
-
-
-def _sampler(seg: Any) -> Any:
-    """``t array -> (n, 2) points`` for an svgelements segment (its ``point`` is scalar-safe
-    only: the vectorised form fails under numpy 2)."""
-
-    def point(ts: np.ndarray) -> np.ndarray:
-        out = np.empty((len(ts), 2), dtype=np.float64)
-        for i, t in enumerate(ts):
-            p = seg.point(float(t))
-            out[i] = (p.x, p.y)
-        return out
-
-    return point
-
-
-def flatten_segment(point: Any, tol: float, depth: int = MAX_DEPTH) -> np.ndarray:
-    """Sample a curve ``point(t)``, t ∈ [0, 1], as a polyline within ``tol`` of it.
-
-    Starts from 8 uniform intervals (so S-curves and full arcs are not mistaken for their
-    chord) and halves every interval whose midpoint is farther than ``tol`` from its
-    chord, at most ``depth`` times. ``point`` maps an array of t to (n, 2) points.
-    Returns (k, 2) including both ends.
-    """
-    ts = np.linspace(0.0, 1.0, 9)
-    for _ in range(depth):
-        pts = np.asarray(point(ts), dtype=np.float64)  # (n, 2)
-        mids_t = (ts[:-1] + ts[1:]) / 2.0
-        mids = np.asarray(point(mids_t), dtype=np.float64)  # (n-1, 2)
-        a, b = pts[:-1], pts[1:]
-        chord = b - a
-        length = np.hypot(chord[:, 0], chord[:, 1])
-        rel = mids - a
-        cross = np.abs(chord[:, 0] * rel[:, 1] - chord[:, 1] * rel[:, 0])
-        dist = np.where(
-            length > 1e-12, cross / np.maximum(length, 1e-12), np.hypot(rel[:, 0], rel[:, 1])
-        )
-        split = dist > tol
-        if not np.any(split):
-            return pts
-        ts = np.sort(np.concatenate([ts, mids_t[split]]))
-    return np.asarray(point(ts), dtype=np.float64)
 
 
 @hookimpl

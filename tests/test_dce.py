@@ -156,7 +156,7 @@ def test_initial_turns_recover_the_arc_of_a_sub_movement(delta: float) -> None:
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data is absent")
 def test_the_authors_density_on_the_paper_tags() -> None:
     """The default relevance 2.5 keeps 29 targets' worth of sub-movements on 49867.json."""
-    from inkmotion.geometry.read import read_input
+    from inkmotion.kinds.read import read_input
 
     traces = read_input(str(SHARED / "49867.json")).fit_to_canvas(350).validated()
     assert moves_at(traces.strokes, relevance_threshold(2.5, 350)) == 29

@@ -1,4 +1,5 @@
-"""Reader plugins (gml, svg, text) and ``read_input`` dispatch, on small made inputs."""
+"""Readers (the gml, svg and text plugins over :mod:`inkmotion.inputs`) and ``read_input``
+dispatch, on small made inputs."""
 
 from __future__ import annotations
 
@@ -8,11 +9,14 @@ import numpy as np
 import pytest
 
 from inkmotion.errors import InputError
-from inkmotion.geometry.read import read_input
-from inkmotion.plugins import gml, hershey, svg
-from inkmotion.plugins.gml import GmlReader, read_gml, up_rotation
-from inkmotion.plugins.hershey import HersheyTextReader, render_text
-from inkmotion.plugins.svg import SvgReader, flatten_segment, read_svg
+from inkmotion.inputs import gml, hershey, svg
+from inkmotion.inputs.gml import read_gml, up_rotation
+from inkmotion.inputs.hershey import render_text
+from inkmotion.inputs.svg import flatten_segment, read_svg
+from inkmotion.kinds.read import read_input
+from inkmotion.plugins.gml import GmlReader
+from inkmotion.plugins.hershey import HersheyTextReader
+from inkmotion.plugins.svg import SvgReader
 
 DATA = Path(__file__).resolve().parent / "data"
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"

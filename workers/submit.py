@@ -51,7 +51,7 @@ def _short(exc: BaseException) -> str:
 
 def _input_files(spec: JobSpec) -> dict[str, Path]:
     """The spec's inputs that are local files (not ``scheme:value`` sources nor text)."""
-    from inkmotion.geometry.read import is_scheme
+    from inkmotion.inputs.sources import is_scheme
     from inkmotion.jobs.kind import job_kind
 
     forms = {i.name: i.form for i in job_kind(spec.kind).inputs}

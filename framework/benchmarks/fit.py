@@ -27,7 +27,7 @@ def bench_fit(input: str | None = None, steps: int = 300, size: int = 350,
               device: str = "cpu") -> dict[str, float | str]:
     """Wall time of a full fit (default settings) and its quality figures, with the plan's
     size (lognormals) beside them."""
-    from inkmotion.geometry.read import is_scheme
+    from inkmotion.inputs.sources import is_scheme
     from inkmotion.jobs.shell import run_job
 
     source = input or default_fit_input()

@@ -23,7 +23,7 @@ from inkmotion.rendering.spray import SpraySession
 def _word_drawing() -> object:
     """The plan the dce initialiser makes of text:inkmotion at 350 px (no fit needed)."""
     import inkmotion
-    from inkmotion.geometry.read import read_input
+    from inkmotion.kinds.read import read_input
     from inkmotion.plugin_host.protocols import JobInputs
     from inkmotion.sigma_lognormal import Drawing
 

@@ -109,7 +109,7 @@ def expand_inputs(inputs: Iterable[str]) -> list[str]:
 def item_names(sources: list[str]) -> list[str]:
     """A distinct, file-system-safe folder name per source (``text:hello`` -> text-hello,
     ``tags/49867.json`` -> 49867; repeats get -2, -3, ...)."""
-    from inkmotion.geometry.read import is_scheme
+    from inkmotion.inputs.sources import is_scheme
 
     names: list[str] = []
     seen: dict[str, int] = {}

@@ -59,7 +59,7 @@ def recorded_agreement(source: str, drawing: Any, png: Path) -> dict[str, Any] |
     the trace, when ``source`` is a file whose points carry time stamps (else None); the
     plot of both speed profiles goes to ``png``."""
     from inkmotion.evaluation.human import human_agreement_from_files
-    from inkmotion.geometry.read import is_scheme
+    from inkmotion.inputs.sources import is_scheme
 
     if is_scheme(source) or not Path(source).is_file():
         return None

@@ -226,7 +226,7 @@ def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,
     (``fit_to_canvas(max(canvas))``), the plans are sampled uniformly in time. A recording
     without times gives {"has_times": False, ...} and no plot. ``options`` go to
     :func:`human_agreement`."""
-    from inkmotion.geometry.read import read_input
+    from inkmotion.kinds.read import read_input
     from inkmotion.outputs.sampling import sample
 
     traces = read_input(recording)

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import SpecError
-from inkmotion.geometry.read import is_scheme
+from inkmotion.inputs.sources import is_scheme
 from inkmotion.jobs.params import (
     PluginChoice,
     describe,

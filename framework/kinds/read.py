@@ -1,0 +1,38 @@
+"""Read any supported input into traces by asking the registered reader plugins.
+
+It lives among the kinds, not the engines, because it asks the plugin host for the
+readers; the engines' part of a source, :func:`~inkmotion.inputs.sources.is_scheme`, is
+pure and lives in :mod:`inkmotion.inputs.sources`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from inkmotion.errors import InputError
+from inkmotion.geometry.traces import Traces
+from inkmotion.inputs.sources import is_scheme
+from inkmotion.plugin_host import host
+
+
+def read_input(source: str, reader: str | None = None) -> Traces:
+    """Parse ``source`` (a file path or ``scheme:value``) with the first reader that accepts it,
+    or with the reader plugin named ``reader``.
+
+    A path that does not exist (and is no ``scheme:value`` string) is refused before any
+    reader runs. Readers are asked in name order (``can_read``), so the choice is
+    deterministic; when none accepts the source the error lists the supported forms.
+    """
+    if not is_scheme(source) and not Path(source).exists():
+        raise InputError(f"{source}: no such file; check the path.")
+    if reader is not None:
+        return host().get("reader", reader).read(source)
+    readers = host().plugins("reader")
+    for name in sorted(readers):
+        if readers[name].can_read(source):
+            return readers[name].read(source)
+    forms = "; ".join(
+        f"{name} ({readers[name].description.rstrip('.')})" for name in sorted(readers)
+    )
+    raise InputError(
+        f"{source}: no reader accepts this input; supported forms are: {forms or 'none'}."
+    )
