@@ -1,188 +1,24 @@
 """Initialiser "dce": discrete curve evolution of each stroke to its salient points.
 
-Discrete curve evolution (Latecki & Lakämper 1998) repeatedly removes the vertex of a
-polyline that contributes least to its shape, keeping the two endpoints. The relevance
-of vertex v with neighbours u, w (the current, already simplified neighbours) is
-
-    K(s1, s2) = β(s1, s2) · 2 · l1 · l2 / (l1 + l2)
-
-with s1 = uv, s2 = vw, l1 = |s1|, l2 = |s2| in canvas px and β ∈ [0, π] the turning angle
-at v in radians (0 on a straight continuation). This is Latecki & Lakämper's
-β·l1·l2/(l1 + l2) times 2, i.e. turning angle × the harmonic mean of the two arm lengths,
-so that for equal arms K = β·l. The order of removal is exactly DCE's; only the scale of
-the stop criterion differs. K is in px·rad and *not* normalised by the stroke length (the
-original divides by the perimeter; here a threshold means the same on every stroke of a
-canvas). Removal stops when the smallest relevance exceeds the stop threshold. Read K as
-"bend × local scale": for shallow turns K ≈ 2·h, h the distance of v from the chord uw,
-so the default threshold 1.0 removes vertices that stand less than about 0.5 px off the
-chord of their neighbours, whatever the arm lengths (a vertex between two 10-px arms is
-kept when it turns by more than 0.1 rad ≈ 6°); a 90° corner is kept when its arms are
-longer than about 0.65 px. Each removal updates only the two neighbours, so with a heap
-(lazy deletion) the cost is O(n log n) per stroke.
-
-Plan density, free of the canvas scale. The stop threshold is given by default as the
-authors' relevance (their demo: turning angle in *degrees* × l1·l2/(l1 + l2), divided by
-the canvas size, kept above 2.5), ``relevance`` = K·(180/π)/(2·size), i.e. the threshold
-K* = relevance·2·size·π/180 px·rad (30.5 px·rad at 350 px for 2.5). Both K and size scale
-with the canvas, so the same tag at 350 px and at 2000 px keeps the same vertices. The
-default 2.5 is the authors': about one target per salient curvature extremum (29 targets
-on 49867.json, 32 on 49873.json), the density at which the sub-movements are the strokes
-a person makes. ``threshold`` (px·rad, absolute) overrides it; ``targets`` (the job's
-``--targets N``) overrides both and searches the relevance that leaves about N
-sub-movements over all strokes (bisection; DCE's removal order is fixed, so the count
-falls monotonically with the threshold).
-
-Initial turning angles. Between two kept vertices the trace is one sub-movement's path; a
-circular arc through its ends with the trace's largest signed deviation h from the chord
-c has δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)), clamped to ±π/2. Starting from the
-bend the trace has, rather than δ = 0 (straight chords), lets the optimiser spend its
-steps on timing and overlap. ``bend = false`` starts every δ at 0 (the authors').
-
-Each simplified stroke becomes one :class:`~inkmotion.MotorPlan` through its kept
-vertices, with the initialisation defaults (Δt = 1, δ = 0, Ac = 0.01, T = 0.8). A third
-coordinate (stroke radius, px) is carried along on the kept vertices; relevance uses
-x, y only.
+The declaration only (its options and a call that checks the job's inputs); the algorithm
+— the relevance K = β·2·l1·l2/(l1 + l2), the canvas-relative stop threshold, the search
+for a number of targets and the initial turning angles — is
+:mod:`inkmotion.initialisers.dce`.
 """
 
 from __future__ import annotations
 
-import heapq
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from inkmotion.errors import SpecError
+from inkmotion.initialisers.dce import DEFAULT_RELEVANCE, dce_plans
 from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.plugin_host.protocols import JobInputs
     from inkmotion.sigma_lognormal.plan import MotorPlan
-
-#: the stop threshold in px·rad when one is given without a canvas (module docstring)
-DEFAULT_THRESHOLD = 1.0
-#: the default density: the authors' relevance, degrees × half harmonic mean length / size
-DEFAULT_RELEVANCE = 2.5
-
-
-def _relevance(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> float:
-    """K = β · 2 l1 l2 / (l1 + l2) at v between u and w (px·rad); 0 for a zero-length arm."""
-    s1x, s1y = v[0] - u[0], v[1] - u[1]
-    s2x, s2y = w[0] - v[0], w[1] - v[1]
-    l1 = math.hypot(s1x, s1y)
-    l2 = math.hypot(s2x, s2y)
-    if l1 <= 1e-12 or l2 <= 1e-12:
-        return 0.0
-    beta = math.atan2(abs(s1x * s2y - s1y * s2x), s1x * s2x + s1y * s2y)  # turning angle
-    return 2.0 * beta * l1 * l2 / (l1 + l2)
-
-
-def dce_indices(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
-    """Indices (k,) of the vertices of ``points`` (n, ≥2) that survive DCE, in order.
-
-    Endpoints are always kept. Vertices are removed in increasing order of relevance
-    K = β·2·l1·l2/(l1 + l2) (px·rad, recomputed for the two neighbours after each removal)
-    while the smallest relevance is ≤ ``threshold``.
-    """
-    p = np.asarray(points, dtype=np.float64)[:, :2]
-    n = p.shape[0]
-    if n <= 2:
-        return np.arange(n)
-    prev = np.arange(-1, n - 1)
-    nxt = np.arange(1, n + 1)
-    alive = np.ones(n, dtype=bool)
-    version = np.zeros(n, dtype=np.int64)  # lazy deletion: heap entries carry a version
-
-    # initial relevances, vectorised
-    s1 = p[1:-1] - p[:-2]
-    s2 = p[2:] - p[1:-1]
-    l1 = np.hypot(s1[:, 0], s1[:, 1])
-    l2 = np.hypot(s2[:, 0], s2[:, 1])
-    cross = np.abs(s1[:, 0] * s2[:, 1] - s1[:, 1] * s2[:, 0])
-    beta = np.arctan2(cross, np.einsum("ij,ij->i", s1, s2))
-    denom = l1 + l2
-    ok = (l1 > 1e-12) & (l2 > 1e-12)
-    k0 = np.where(ok, 2.0 * beta * l1 * l2 / np.maximum(denom, 1e-300), 0.0)
-    heap = [(float(k), i + 1, 0) for i, k in enumerate(k0)]
-    heapq.heapify(heap)
-
-    while heap:
-        k, i, ver = heap[0]
-        if k > threshold:
-            break
-        heapq.heappop(heap)
-        if not alive[i] or ver != version[i]:
-            continue  # stale entry
-        alive[i] = False
-        a, b = prev[i], nxt[i]
-        nxt[a], prev[b] = b, a
-        for j in (a, b):
-            if 0 < j < n - 1:  # interior: endpoints are never candidates
-                version[j] += 1
-                heapq.heappush(
-                    heap, (_relevance(p[prev[j]], p[j], p[nxt[j]]), j, int(version[j]))
-                )
-    return np.nonzero(alive)[0]
-
-
-def dce(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
-    """The salient points (k, D) of a polyline ``points`` (n, D) by discrete curve evolution.
-
-    Relevance K = β·2·l1·l2/(l1 + l2) in px·rad on the first two columns; further columns
-    (the radius) are kept on the surviving vertices. See :func:`dce_indices`.
-    """
-    p = np.asarray(points, dtype=np.float64)
-    return p[dce_indices(p, threshold)]
-
-
-def relevance_threshold(relevance: float, size: float) -> float:
-    """The stop threshold K* (px·rad) of the authors' canvas-relative ``relevance`` on a
-    canvas whose longer side is ``size`` px: K* = relevance·2·size·π/180."""
-    return relevance * 2.0 * float(size) * math.pi / 180.0
-
-
-def moves_at(strokes: list[np.ndarray], threshold: float) -> int:
-    """Sub-movements over all ``strokes`` when DCE stops at ``threshold`` px·rad."""
-    return sum(len(dce_indices(s, threshold)) - 1 for s in strokes)
-
-
-def threshold_for_moves(strokes: list[np.ndarray], moves: int, size: float) -> float:
-    """The stop threshold (px·rad) whose plans have the count of sub-movements nearest to
-    ``moves`` over all ``strokes`` (bisection on the log threshold; the count falls
-    monotonically as the threshold grows). Between 1 sub-movement per stroke and every
-    input vertex."""
-    lo, hi = 1e-6, 4.0 * math.pi * float(size)  # keeps everything / keeps only the ends
-    for _ in range(60):
-        mid = math.sqrt(lo * hi)
-        if moves_at(strokes, mid) > moves:
-            lo = mid
-        else:
-            hi = mid
-        if hi / lo < 1.0 + 1e-6:
-            break
-    return lo if abs(moves_at(strokes, lo) - moves) < abs(moves_at(strokes, hi) - moves) else hi
-
-
-def initial_turns(points: np.ndarray, kept: np.ndarray) -> np.ndarray:
-    """Turning angles δ (k − 1,) of the sub-movements between consecutive kept vertices
-    ``kept`` (k,) of the polyline ``points`` (n, ≥2): the circular arc through the piece's
-    ends with its largest signed deviation from the chord (module docstring). The sign is
-    the kinematics' (δ > 0 bends to the right of the chord in canvas coordinates, y down,
-    i.e. cross(chord, point − start) < 0)."""
-    p = np.asarray(points, dtype=np.float64)[:, :2]
-    out = np.zeros(max(len(kept) - 1, 0))
-    for i, (a, b) in enumerate(zip(kept[:-1], kept[1:], strict=True)):
-        chord = p[b] - p[a]
-        c = float(np.hypot(*chord))
-        if b - a < 2 or c <= 1e-9:
-            continue
-        rel = p[a + 1:b] - p[a]
-        h = (chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / c  # signed distance, (b − a − 1,)
-        deviation = float(h[np.argmax(np.abs(h))])
-        out[i] = -4.0 * math.atan(2.0 * deviation / c)
-    return np.clip(out, -math.pi / 2, math.pi / 2)
 
 
 @dataclass
@@ -220,30 +56,14 @@ class DceInitialiser:
         bend: bool = True,
     ) -> list[MotorPlan]:
         """Plans for every stroke of ``inputs.traces`` (validated first: degenerate strokes
-        dropped); ``inputs.targets`` asks for about that many sub-movements in all."""
-        import torch
-
-        from inkmotion.sigma_lognormal.plan import MotorPlan
-
+        dropped); ``inputs.targets`` asks for about that many sub-movements in all
+        (:func:`inkmotion.initialisers.dce.dce_plans`)."""
         if inputs.traces is None:
             raise SpecError("The dce initialiser needs traces (a drawing input); use another "
                             "initialiser for images or captions.")
-        strokes = inputs.traces.validated().strokes
-        size = max(inputs.canvas)
-        if inputs.targets is not None:
-            threshold = threshold_for_moves(strokes, inputs.targets, size)
-        elif threshold is None:
-            threshold = relevance_threshold(relevance, size)
-        plans = []
-        for stroke in strokes:
-            kept = dce_indices(stroke, threshold)
-            delta = initial_turns(stroke, kept) if bend else np.zeros(len(kept) - 1)
-            plan = MotorPlan.from_points(np.asarray(stroke, dtype=np.float64)[kept],
-                                         width=width, dtype=dtype or torch.float32,
-                                         device=device)
-            plan.delta.copy_(torch.as_tensor(delta, dtype=plan.delta.dtype))
-            plans.append(plan)
-        return plans
+        return dce_plans(inputs.traces.validated().strokes, max(inputs.canvas),
+                         targets=inputs.targets, relevance=relevance, threshold=threshold,
+                         bend=bend, width=width, dtype=dtype, device=device)
 
 
 @hookimpl

@@ -10,8 +10,7 @@ import torch
 import inkmotion
 from inkmotion.errors import SpecError
 from inkmotion.geometry.traces import Traces
-from inkmotion.plugin_host.protocols import JobInputs
-from inkmotion.plugins.dce import (
+from inkmotion.initialisers.dce import (
     dce,
     dce_indices,
     initial_turns,
@@ -19,6 +18,7 @@ from inkmotion.plugins.dce import (
     relevance_threshold,
     threshold_for_moves,
 )
+from inkmotion.plugin_host.protocols import JobInputs
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "gml"
 

@@ -208,8 +208,8 @@ def test_real_tags_carry_times_and_agree_with_a_plan(tmp_path):
     import torch
 
     from inkmotion.errors import InputError
+    from inkmotion.initialisers.dce import dce
     from inkmotion.kinds.read import read_input
-    from inkmotion.plugins.dce import dce
     from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
 
     timed = {}
@@ -244,8 +244,8 @@ def test_item_figures_of_a_timed_tag(tmp_path):
     import torch
 
     from inkmotion.evaluation.fit_motion import item_figures
+    from inkmotion.initialisers.dce import dce
     from inkmotion.kinds.read import read_input
-    from inkmotion.plugins.dce import dce
     from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
 
     source = str(GML / "49873.json")

@@ -218,7 +218,7 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
 def authors_moves(traces: Any, size: float) -> int:
     """Sub-movements the authors' DCE gives the input (their demo: relevance, turning
     degrees × l1·l2/(l1+l2) ÷ canvas size, above 2.5), the density to compare m with."""
-    from inkmotion.plugins.dce import DEFAULT_RELEVANCE, moves_at, relevance_threshold
+    from inkmotion.initialisers.dce import DEFAULT_RELEVANCE, moves_at, relevance_threshold
 
     strokes = traces.validated().strokes
     return moves_at(strokes, relevance_threshold(DEFAULT_RELEVANCE, size))
