@@ -1,15 +1,24 @@
-"""The plugin host: built-ins through entry points, validation, broken plugins."""
+"""The plugin host: built-ins through entry points, validation against the protocols,
+broken plugins."""
 
 from __future__ import annotations
 
 import sys
 import textwrap
+from dataclasses import dataclass
+from typing import Protocol
 
 import pytest
 
 import inkmotion
 from inkmotion.errors import PluginError
-from inkmotion.plugin_host import PluginHost, hookimpl, host
+from inkmotion.plugin_host import KIND_HOOKS, PluginHost, hookimpl, host, protocols
+from inkmotion.plugin_host.protocols import (
+    OPTIONAL,
+    PROTOCOLS,
+    check_plugin_object,
+    protocol_members,
+)
 
 BUILT_INS = {("reader", "gml"), ("reader", "svg"), ("reader", "text"),
              ("initialiser", "dce"), ("image-loss", "mse"), ("renderer", "raster")}
@@ -169,3 +178,110 @@ def test_plugins_lists_a_disabled_plugin() -> None:
     assert {"kind": "?", "name": "spray", "origin": "inkmotion (inkmotion.plugins.spray)",
             "description": "disabled", "error": "disabled by INKMOTION_DISABLE_PLUGINS"} in rows
     assert not any(r["kind"] == "renderer" and r["name"] == "spray" for r in rows)
+
+
+# -- the contract is the protocols ---------------------------------------------------------
+
+class _Renderer:
+    name = "raster"
+    description = "A renderer with the required members only."
+
+    def __call__(self, segments, widths, height, width):
+        return None
+
+
+class _Reader:
+    name = "half-reader"
+    description = "A reader without read()."
+
+    def can_read(self, source: str) -> bool:
+        return True
+
+
+def test_an_object_missing_a_protocol_method_is_refused_naming_it() -> None:
+    class Module:
+        @hookimpl
+        def inkmotion_readers(self):
+            return [_Reader()]
+
+    with pytest.raises(PluginError, match="the reader plugin 'half-reader' lacks read"):
+        PluginHost().register(Module(), name="half")
+    not_callable = type("NotCallable", (_Reader,), {"read": "not a method"})()
+    assert check_plugin_object("reader", not_callable) == (
+        "the reader plugin 'half-reader': read must be callable")
+
+
+def test_optional_members_are_not_required() -> None:
+    """A renderer without ``session``, a robot backend without ``replay``, a job kind
+    without ``run_together`` or ``examples``: each registers; no optional member is among
+    the required ones."""
+
+    @dataclass
+    class _Params:
+        steps: int = 1
+
+    class Kind:
+        name, description, queue, inputs, Params = "bare-kind", "No extras.", "q", (), _Params
+
+        def steps(self, params: object) -> int:
+            return 1
+
+        def run(self, job: object) -> dict:
+            return {}
+
+    class Backend:
+        name, description = "bare-backend", "No replay."
+
+        def execute(self, program: object, folder: object, **options: object) -> dict:
+            return {}
+
+    bare = type("Bare", (_Renderer,), {"name": "bare"})()
+    for kind, obj in (("renderer", bare), ("robot-backend", Backend()), ("job-kind", Kind())):
+        assert check_plugin_object(kind, obj) is None, kind
+    for kind in PROTOCOLS:
+        required, optional = protocol_members(PROTOCOLS[kind]), protocol_members(OPTIONAL[kind])
+        assert not set(required) & set(optional), kind
+    assert {"session", "renders_canvases"} <= set(protocol_members(OPTIONAL["renderer"]))
+    assert "replay" in protocol_members(OPTIONAL["robot-backend"])
+    assert {"run_together", "examples"} <= set(protocol_members(OPTIONAL["job-kind"]))
+
+
+def test_the_check_follows_the_protocol(monkeypatch) -> None:
+    """The members checked are the protocol's (bases included), methods callable; one
+    added to a kind's protocol is required from then on."""
+    assert set(PROTOCOLS) == set(OPTIONAL) == set(KIND_HOOKS)
+    assert protocol_members(protocols.JobKind) == {
+        "name": False, "description": False, "queue": False, "inputs": False,
+        "Params": False, "steps": True, "run": True}
+    assert protocol_members(protocols.Renderer) == {
+        "__call__": True, "name": False, "description": False}
+
+    class Erasing(protocols.Renderer, Protocol):
+        brush: str
+
+        def erase(self) -> None:
+            """Clear the canvas."""
+
+    monkeypatch.setitem(protocols.PROTOCOLS, "renderer", Erasing)
+    assert check_plugin_object("renderer", _Renderer()) == (
+        "the renderer plugin 'raster' lacks brush, erase")
+    half = type("Half", (_Renderer,), {"brush": "soft", "erase": None})()
+    assert check_plugin_object("renderer", half) == (
+        "the renderer plugin 'raster': erase must be callable")
+    whole = type("Whole", (_Renderer,), {"brush": "soft", "erase": lambda self: None})()
+    assert check_plugin_object("renderer", whole) is None
+
+
+def test_the_protocols_import_no_torch_and_the_objective_no_plugin_manager() -> None:
+    """Engines take their hints from the protocols: importing them loads neither torch nor
+    pluggy, and the objective does not pull in the plugin manager."""
+    import subprocess
+
+    code = ("import sys, {module}; print(sorted(n for n in sys.modules if n in "
+            "('torch', 'pluggy', 'inkmotion.plugin_host.manager', "
+            "'inkmotion.plugin_host.hookspecs')))")
+    for module, expected in (("inkmotion.plugin_host.protocols", "[]"),
+                             ("inkmotion.fitting.objective", "['torch']")):
+        out = subprocess.run([sys.executable, "-c", code.format(module=module)],
+                             capture_output=True, text=True, check=True)
+        assert out.stdout.strip() == expected, (module, out.stdout)

@@ -25,6 +25,7 @@ import torch
 from inkmotion.errors import InkmotionError
 from inkmotion.fitting.losses import canvas_cost, smoothing_cost
 from inkmotion.geometry.bezier import hermite_segments
+from inkmotion.plugin_host.protocols import BoundLoss, Renderer, RenderFunction
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.kinematics import evaluate_kinematics, plan_window, uniform_times
 from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
@@ -34,8 +35,6 @@ from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
 DELTA_T_MIN = DELTA_T_RANGE[0]
 AC_MAX = AC_RANGE[1]
 
-Renderer = Callable[[torch.Tensor, torch.Tensor, int, int], torch.Tensor]
-ImageLoss = Callable[[torch.Tensor], torch.Tensor]
 #: (segments (S, 4, D), layout, step) -> 0-d loss: the trace term
 #: (:class:`inkmotion.fitting.trace_loss.TraceLoss`, with ``state``/``load_state``)
 TraceTerm = Callable[[torch.Tensor, GridLayout, "int | None"], torch.Tensor]
@@ -76,7 +75,7 @@ class Objective:
     :meth:`replan_if_needed` is called, e.g. by the optimiser with its own checks).
     """
 
-    def __init__(self, renderer: Renderer, image_losses: dict[str, ImageLoss],
+    def __init__(self, renderer: Renderer, image_losses: dict[str, BoundLoss],
                  canvas: tuple[int, int], weights: Weights, *, static: bool | None = None,
                  check_every: int = 25, trace: TraceTerm | None = None) -> None:
         self.renderer = renderer
@@ -87,7 +86,7 @@ class Objective:
         self.static = static
         self.check_every = check_every
         self.layout: GridLayout | None = None
-        self._render: Renderer | None = None
+        self._render: RenderFunction | None = None  # the renderer, or its session
         self._window_overflow: torch.Tensor | None = None  # 0-d bool on the device
         self._calls = 0
 

@@ -1,21 +1,35 @@
 """What a plugin object of each kind looks like (structural typing, no base class needed).
 
-The host checks every object a plugin returns against its kind's protocol when the plugin
-registers (:func:`check_plugin_object`), so a plugin missing ``name`` or a method fails
-at start-up with a sentence naming it, not in the middle of a job.
+These classes are the plugin contract, written once: the host derives its registration
+check from them (:func:`check_plugin_object`: every member of the kind's protocol in
+:data:`PROTOCOLS` must exist, and its methods must be callable), and the engines take
+their type hints from them (e.g. :class:`inkmotion.fitting.objective.Objective`). A plugin
+missing ``name`` or a method fails at start-up with a sentence naming it, not in the
+middle of a job; a member added here is checked from then on.
+
+Optional members are declared apart, in one ``…Optional`` protocol per kind
+(:data:`OPTIONAL`: a renderer's ``session``, a robot backend's ``replay``, a job kind's
+``run_together`` and ``examples``, any plugin's ``Options``), so the check never requires
+them while type checkers and readers still see their signatures; the code that uses one
+looks it up with ``getattr(obj, name, None)``.
+
+Importing this module imports neither torch nor the plugin manager (the heavy types are
+hints only), so the engines may use it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Generic, Protocol
 
 if TYPE_CHECKING:
     import torch
 
     from inkmotion.geometry.traces import Traces
     from inkmotion.jobs.shell import Job
+    from inkmotion.robot.types import RobotProgram
     from inkmotion.sigma_lognormal.plan import MotorPlan
 
 
@@ -50,15 +64,29 @@ class Reference:
 
 
 class Plugin(Protocol):
+    """What every plugin object has: a one-word ``name``, unique within its kind, and a
+    one-line ``description`` shown by ``inkmotion plugins``."""
+
     name: str
     description: str
 
 
+class PluginOptional(Protocol):
+    """What any plugin object may have and the host does not require."""
+
+    #: a dataclass of the options it takes (fields declared with
+    #: ``inkmotion.jobs.params.param``), reaching the object as keyword arguments
+    Options: type
+
+
+# -- job kinds -------------------------------------------------------------------------
+
 class JobKind(Plugin, Protocol):
-    queue: str
+    """A kind of job (fit, tag, simulate, …): its inputs, parameters, queue and work."""
+
+    queue: str  # the Celery queue its jobs go to, a non-empty string
     inputs: tuple  # of inkmotion.jobs.kind.InputSpec
     Params: type  # a dataclass (inkmotion.jobs.params)
-    examples: tuple  # command lines shown by --help
 
     def steps(self, params: Any) -> int:
         """How many steps a job with ``params`` reports."""
@@ -67,7 +95,22 @@ class JobKind(Plugin, Protocol):
         """Do the work, writing artifacts into ``job.folder``; return the report."""
 
 
+class JobKindOptional(PluginOptional, Protocol):
+    """What a job kind may have besides :class:`JobKind`."""
+
+    examples: tuple  # command lines shown by --help
+
+    def run_together(self, jobs: list[Job]) -> Iterable[dict | BaseException]:
+        """Run several jobs of this kind (same parameters, other inputs and seeds) as one
+        batched optimisation: each job's report, or the exception it failed with, in
+        order (``inkmotion.jobs.shell.run_jobs_together``)."""
+
+
+# -- readers and initialisers ----------------------------------------------------------
+
 class Reader(Plugin, Protocol):
+    """Turns a drawing input into traces."""
+
     def can_read(self, source: str) -> bool:
         """True when this reader understands ``source`` (a path or ``scheme:value``)."""
 
@@ -76,31 +119,67 @@ class Reader(Plugin, Protocol):
 
 
 class Initialiser(Plugin, Protocol):
+    """Makes the first motor plans of a fit from the job's inputs."""
+
     def __call__(self, inputs: JobInputs, *, width: float, dtype: torch.dtype,
                  device: torch.device, **options: Any) -> list[MotorPlan]:
         """One motor plan per trajectory (pen lift between plans) from the job's inputs."""
 
 
+# -- image losses ----------------------------------------------------------------------
+
+class BoundLoss(Protocol):
+    """An image loss bound to its reference (what :meth:`ImageLoss.prepare` returns)."""
+
+    def __call__(self, rendered: torch.Tensor) -> torch.Tensor:
+        """The 0-d loss of ``rendered`` (H, W) coverage in [0, 1], differentiable."""
+
+
 class ImageLoss(Plugin, Protocol):
-    def prepare(self, reference: Reference, **options: Any) -> Any:
+    """Compares a rendering with a reference (an image, a caption, or both)."""
+
+    def prepare(self, reference: Reference, **options: Any) -> BoundLoss:
         """A callable ``loss(rendered (H, W)) -> scalar`` bound to ``reference``."""
 
 
-class Renderer(Plugin, Protocol):
+# -- renderers -------------------------------------------------------------------------
+
+class RenderFunction(Protocol):
+    """The call a renderer (or its per-fit session) answers."""
+
     def __call__(
         self, segments: torch.Tensor, widths: torch.Tensor, height: int, width: int
     ) -> torch.Tensor:
         """Render cubic segments to coverage (H, W) in [0, 1]: segments (S, 4, 2) with
         widths (S,), or (S, 4, 3) whose third coordinate is the radius in px (widths then
-        ignored; the 2.5D plans, the width varying along the stroke).
+        ignored; the 2.5D plans, the width varying along the stroke)."""
 
-        Optional: ``session(device, static=None)`` returning a callable with the same
-        signature that plans its sizes once per fit (static shapes, no device reads on a
-        GPU) and offers ``overflow`` (a 0-d bool tensor) and ``replan_if_needed()``; the
-        objective uses it when present (see the built-in 'raster')."""
 
+class Renderer(Plugin, RenderFunction, Protocol):
+    """Draws Bézier segments as a differentiable coverage image (the call of
+    :class:`RenderFunction`)."""
+
+
+class RendererOptional(PluginOptional, Protocol):
+    """What a renderer may have besides :class:`Renderer`; the objective uses each when
+    present (see the built-in 'raster')."""
+
+    #: True when its calls take ``canvases=`` and draw several drawings at once (count,
+    #: H, W): a batched fit asks for it
+    renders_canvases: bool
+
+    def session(self, device: torch.device | str, static: bool | None = None
+                ) -> RenderFunction:
+        """A callable with the renderer's signature that plans its sizes once per fit
+        (static shapes, no device reads on a GPU); it may offer ``overflow`` (a 0-d bool
+        tensor, a budget was outgrown) and ``replan_if_needed()``."""
+
+
+# -- saliency and robot backends -------------------------------------------------------
 
 class Saliency(Plugin, Protocol):
+    """Estimates where an image draws the eye."""
+
     def __call__(self, image: torch.Tensor, reference: Reference, **options: Any
                  ) -> torch.Tensor:
         """An (H, W) map in [0, 1] of where ``image`` (3, H, W) RGB in [0, 1] draws the eye;
@@ -108,38 +187,85 @@ class Saliency(Plugin, Protocol):
 
 
 class RobotBackend(Plugin, Protocol):
-    def execute(self, program: Any, folder: Path, **options: Any) -> dict:
-        """Execute or export ``program`` (a :class:`inkmotion.robot.types.RobotProgram`:
-        setup, timed pen-tip path, joint trajectory), writing its files into ``folder``;
-        return the figures for report.json. Optional: ``replay(program, result, stream)``
-        logging the execution into the job's rerun recording."""
+    """Executes or exports a robot program."""
+
+    def execute(self, program: RobotProgram, folder: Path, **options: Any) -> dict:
+        """Execute or export ``program`` (setup, timed pen-tip path, joint trajectory),
+        writing its files into ``folder``; return the figures for report.json."""
 
 
-#: plugin kind -> (protocol, the attributes and methods an object must have)
-REQUIRED: dict[str, tuple[str, ...]] = {
-    "job-kind": ("queue", "inputs", "Params", "steps", "run"),
-    "reader": ("can_read", "read"),
-    "initialiser": ("__call__",),
-    "image-loss": ("prepare",),
-    "renderer": ("__call__",),
-    "saliency": ("__call__",),
-    "robot-backend": ("execute",),
+class RobotBackendOptional(PluginOptional, Protocol):
+    """What a robot backend may have besides :class:`RobotBackend`."""
+
+    def replay(self, program: RobotProgram, result: dict, stream: Any) -> None:
+        """Log the execution (``result``: :meth:`RobotBackend.execute`'s figures) into the
+        job's rerun recording ``stream``."""
+
+
+# -- the contract, by kind -------------------------------------------------------------
+
+#: plugin kind (as users name it, the keys of ``hookspecs.KIND_HOOKS``) -> its protocol:
+#: every member is required at registration
+PROTOCOLS: dict[str, type] = {
+    "job-kind": JobKind,
+    "reader": Reader,
+    "initialiser": Initialiser,
+    "image-loss": ImageLoss,
+    "renderer": Renderer,
+    "saliency": Saliency,
+    "robot-backend": RobotBackend,
+}
+
+#: plugin kind -> the protocol of the members it may have (never required)
+OPTIONAL: dict[str, type] = {
+    "job-kind": JobKindOptional,
+    "reader": PluginOptional,
+    "initialiser": PluginOptional,
+    "image-loss": PluginOptional,
+    "renderer": RendererOptional,
+    "saliency": PluginOptional,
+    "robot-backend": RobotBackendOptional,
 }
 
 
+def protocol_members(protocol: type) -> dict[str, bool]:
+    """Every member ``protocol`` declares, its protocol bases' included (:class:`Plugin`'s
+    ``name`` and ``description``), in declaration order (bases first, then attributes
+    before methods), mapped to whether it must be callable: True for a method
+    (``__call__`` included: the object itself must be callable), False for an annotated
+    attribute. Private names and typing's own machinery are not members."""
+    members: dict[str, bool] = {}
+    for cls in reversed(protocol.__mro__):
+        if cls in (object, Generic, Protocol) or not cls.__dict__.get("_is_protocol", False):
+            continue
+        for name in cls.__dict__.get("__annotations__", {}):
+            if not name.startswith("_"):
+                members.setdefault(name, False)
+        for name, value in cls.__dict__.items():
+            if callable(value) and (name == "__call__" or not name.startswith("_")):
+                members[name] = True
+    return members
+
+
 def check_plugin_object(kind: str, obj: Any) -> str | None:
-    """Why ``obj`` is not a valid plugin of ``kind`` (one phrase), or None when it is."""
+    """Why ``obj`` is not a valid plugin of ``kind`` (one phrase), or None when it is.
+
+    The members checked are :func:`protocol_members` of ``PROTOCOLS[kind]``: each must
+    exist, the methods must be callable; ``name`` and ``description`` first, with their
+    own phrases. A job kind's ``Params`` must moreover be a dataclass and its ``queue`` a
+    non-empty string (what a protocol cannot say).
+    """
     name = getattr(obj, "name", None)
     if not isinstance(name, str) or not name or any(c.isspace() for c in name):
         return f"a {kind} plugin object {obj!r} has no valid `name` (a word)"
     if not isinstance(getattr(obj, "description", None), str):
         return f"the {kind} plugin {name!r} has no `description` string"
-    missing = [a for a in REQUIRED.get(kind, ()) if not hasattr(obj, a)]
+    members = protocol_members(PROTOCOLS.get(kind, Plugin))
+    missing = [m for m in members if not hasattr(obj, m)]
     if missing:
         return f"the {kind} plugin {name!r} lacks {', '.join(missing)}"
-    not_callable = [a for a in REQUIRED.get(kind, ())
-                    if a in ("__call__", "can_read", "read", "prepare", "steps", "run", "execute")
-                    and not callable(getattr(obj, a, None) if a != "__call__" else obj)]
+    not_callable = [m for m, method in members.items() if method
+                    and not callable(obj if m == "__call__" else getattr(obj, m))]
     if not_callable:
         return f"the {kind} plugin {name!r}: {', '.join(not_callable)} must be callable"
     if kind == "job-kind":
