@@ -32,7 +32,8 @@ Definitions.
 - Curvature of a planar curve: κ = |ẋÿ − ẏẍ| / |v|³ (1/R on a circle of radius R).
 - Speed peaks and minima: ``scipy.signal.find_peaks`` on the speed (or its negative) with a
   prominence of ``prominence`` × the peak speed, after an optional Gaussian smoothing of
-  ``smooth_s`` seconds (for noisy recordings).
+  ``smooth_s`` seconds (for noisy recordings); :func:`speed_peaks` and :func:`speed_minima`
+  live in :mod:`inkmotion.speed_extrema`, below the spray preview that needs them too.
 """
 
 from __future__ import annotations
@@ -40,8 +41,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 from scipy.signal import find_peaks
+
+from inkmotion.speed_extrema import speed_minima, speed_peaks
 
 #: curvature below this over the path's extent (a radius 1000× the drawing) is straight
 STRAIGHT = 1e-3
@@ -87,36 +89,6 @@ def speed(position: np.ndarray, dt: float) -> np.ndarray:
 def peak_speed(position: np.ndarray, dt: float) -> float:
     """max_t |v(t)|: the largest planar speed of the samples."""
     return float(speed(position, dt).max())
-
-
-def _smoothed(values: np.ndarray, dt: float, smooth_s: float) -> np.ndarray:
-    values = np.asarray(values, dtype=np.float64)
-    if smooth_s <= 0:
-        return values
-    return gaussian_filter1d(values, smooth_s / dt, mode="nearest")
-
-
-def speed_peaks(speed: np.ndarray, dt: float, *, smooth_s: float = 0.0,
-                prominence: float = 0.05) -> np.ndarray:
-    """Indices of the local maxima of ``speed`` (N,) whose prominence is at least
-    ``prominence`` × the peak speed, after a Gaussian smoothing of standard deviation
-    ``smooth_s`` seconds (0: none). A bell-shaped stroke has one."""
-    s = _smoothed(speed, dt, smooth_s)
-    top = float(np.max(s)) if len(s) else 0.0
-    if top <= 0:
-        return np.zeros(0, dtype=np.int64)
-    return find_peaks(s, prominence=prominence * top)[0].astype(np.int64)
-
-
-def speed_minima(speed: np.ndarray, dt: float, *, smooth_s: float = 0.0,
-                 prominence: float = 0.05) -> np.ndarray:
-    """Indices of the interior local minima of ``speed`` (N,) with prominence at least
-    ``prominence`` × the peak speed (the rest at both ends is not a minimum)."""
-    s = _smoothed(speed, dt, smooth_s)
-    top = float(np.max(s)) if len(s) else 0.0
-    if top <= 0:
-        return np.zeros(0, dtype=np.int64)
-    return find_peaks(-s, prominence=prominence * top)[0].astype(np.int64)
 
 
 def jerk_from(acceleration: np.ndarray, dt: float) -> np.ndarray:

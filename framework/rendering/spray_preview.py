@@ -106,7 +106,7 @@ def drips_of(xy: np.ndarray, speed: np.ndarray, dt: float, flow: float, v_ref: f
              sigma0: float, style: SprayStyle, rng: np.random.Generator,
              height: int) -> list[Drip]:
     """The drips of one path (module docstring)."""
-    from inkmotion.evaluation.metrics import speed_minima
+    from inkmotion.speed_extrema import speed_minima
 
     out = []
     for i in speed_minima(speed, dt, prominence=0.05):
