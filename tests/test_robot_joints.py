@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 
 from inkmotion.errors import InputError
-from inkmotion.robot import panda
+from inkmotion.robot import limits, panda
 from inkmotion.robot.joints import solve_joint_trajectory
 from inkmotion.robot.kinematics import check_reachable, pen_jacobians, pen_model, pen_poses
 from inkmotion.robot.scene import build_scene
@@ -191,7 +191,7 @@ def test_stays_inside_the_joint_limits_with_margin(eight):
 def test_respects_the_panda_velocity_acceleration_and_jerk_limits(eight):
     _, result = eight
     dt = 1.0 / RATE
-    assert np.all(np.abs(np.diff(result.q, axis=0)) / dt <= panda.VELOCITY_LIMITS)
+    assert np.all(np.abs(np.diff(result.q, axis=0)) / dt <= limits.VELOCITY_LIMITS)
     for key in ("max_velocity_ratio", "max_acceleration_ratio", "max_jerk_ratio"):
         ratio = np.asarray(result.info[key])
         assert ratio.shape == (7,) and np.all(ratio < 1.0), (key, ratio)

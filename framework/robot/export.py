@@ -27,7 +27,7 @@ from inkmotion.robot.types import RobotProgram
 
 def program_header(program: RobotProgram, rate: float) -> dict[str, Any]:
     """The header of an export: setup, limits, calibration and timing of ``program``."""
-    from inkmotion.robot import panda
+    from inkmotion.robot import limits
 
     setup = program.setup
     plane = setup.plane
@@ -41,9 +41,9 @@ def program_header(program: RobotProgram, rate: float) -> dict[str, Any]:
         "limits": {
             "v_max_m_s": setup.v_max, "a_max_m_s2": setup.a_max,
             "joint_margin_rad": setup.joint_margin, "limit_fraction": setup.limit_fraction,
-            "joint_velocity_rad_s": panda.VELOCITY_LIMITS.tolist(),
-            "joint_acceleration_rad_s2": panda.ACCELERATION_LIMITS.tolist(),
-            "joint_jerk_rad_s3": panda.JERK_LIMITS.tolist(),
+            "joint_velocity_rad_s": limits.VELOCITY_LIMITS.tolist(),
+            "joint_acceleration_rad_s2": limits.ACCELERATION_LIMITS.tolist(),
+            "joint_jerk_rad_s3": limits.JERK_LIMITS.tolist(),
         },
         "calibration": {
             "plane_origin_m": np.asarray(plane.origin).tolist(),

@@ -43,7 +43,7 @@ from inkmotion.robot.kinematics import (
     pen_model,
     pen_poses,
 )
-from inkmotion.robot.panda import ACCELERATION_LIMITS, JERK_LIMITS, VELOCITY_LIMITS
+from inkmotion.robot.limits import joint_limit_ratios
 from inkmotion.robot.types import JointTrajectory
 
 _DOF = 7
@@ -329,21 +329,6 @@ def _pose_errors(problem: _Problem, q: np.ndarray,
     n = problem.normal
     angle = np.arctan2(np.linalg.norm(_cross(axes, n), axis=1), -(axes @ n))
     return np.linalg.norm(positions - target, axis=1), angle
-
-
-def joint_limit_ratios(q: np.ndarray, rate: float) -> dict[str, np.ndarray]:
-    """Per joint, the peak |finite difference| of q (N, 7) at ``rate`` Hz over the Panda's
-    limits: velocity Δq·f, acceleration Δ²q·f², jerk Δ³q·f³ (1 = at the limit)."""
-    out = {}
-    for order, name, limit in ((1, "velocity", VELOCITY_LIMITS),
-                               (2, "acceleration", ACCELERATION_LIMITS),
-                               (3, "jerk", JERK_LIMITS)):
-        if len(q) <= order:
-            out[name] = np.zeros(_DOF)
-            continue
-        peak = np.max(np.abs(np.diff(q, n=order, axis=0)), axis=0) * rate**order
-        out[name] = peak / limit
-    return out
 
 
 def _interpolate(tau: np.ndarray, q: np.ndarray, t: np.ndarray) -> np.ndarray:

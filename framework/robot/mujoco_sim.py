@@ -39,7 +39,7 @@ import mujoco
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from inkmotion.robot import panda
+from inkmotion.robot import limits
 from inkmotion.robot.scene import Scene
 
 #: joint stiffness of libfranka's joint impedance example (stiff shoulder, soft wrist)
@@ -311,22 +311,6 @@ def _error_stats(err: np.ndarray, mask: np.ndarray, normal: np.ndarray,
     }
 
 
-def _derivatives(x: np.ndarray, dt: float, order: int) -> list[np.ndarray]:
-    """Central finite differences of ``x`` (N, ...) along time, orders 1..``order``."""
-    out, current = [], x
-    for _ in range(order):
-        current = np.gradient(current, dt, axis=0)
-        out.append(current)
-    return out
-
-
-def _limit_figures(name: str, peak: np.ndarray, limit: np.ndarray) -> dict:
-    """Per-joint peaks, their ratios to the limits and the smallest margin (1 − ratio)."""
-    ratio = peak / limit
-    return {f"{name}_max": peak.tolist(), f"{name}_ratio": ratio.tolist(),
-            f"{name}_min_margin": float(1.0 - ratio.max())}
-
-
 def execution_metrics(sim: SimResult, planned_tip: np.ndarray, pen_down: np.ndarray, *,
                       rate: float | None = None, normal: np.ndarray | None = None,
                       edge_s: float = 0.02) -> dict:
@@ -339,9 +323,10 @@ def execution_metrics(sim: SimResult, planned_tip: np.ndarray, pen_down: np.ndar
     pen-down, so it is reported apart instead of polluting the drawing error. ``tracking_*``
     compares with the planned tip, ``control_*`` with the forward kinematics of q_des
     (the controller alone, without the joint planner's own error). Joint velocity,
-    acceleration and jerk (finite differences; executed from the simulated velocity and
-    acceleration, commanded from q_des) and the flange's Cartesian speed and acceleration
-    are given against the Panda limits. Contact coverage is the fraction of pen-down
+    acceleration and jerk (executed: the simulated velocity and acceleration, the jerk their
+    finite difference; commanded: finite differences of q_des) and the flange's Cartesian
+    speed and acceleration (finite differences) are given against the Panda limits, all by
+    :mod:`inkmotion.robot.limits`. Contact coverage is the fraction of pen-down
     samples, ``edge_s`` away from a stroke's start and end, where the pen touches; spurious
     contact the same over pen-up samples.
     """
@@ -367,27 +352,23 @@ def execution_metrics(sim: SimResult, planned_tip: np.ndarray, pen_down: np.ndar
     metrics["joint_error_max_rad"] = joint_err.max(axis=0).tolist()
     metrics["joint_error_rms_rad"] = float(np.sqrt(np.mean(joint_err**2)))
 
-    executed_jerk = np.gradient(sim.qdd, dt, axis=0)
-    metrics.update(_limit_figures("executed_joint_velocity", np.abs(sim.qd).max(axis=0),
-                                  panda.VELOCITY_LIMITS))
-    metrics.update(_limit_figures("executed_joint_acceleration", np.abs(sim.qdd).max(axis=0),
-                                  panda.ACCELERATION_LIMITS))
-    metrics.update(_limit_figures("executed_joint_jerk", np.abs(executed_jerk).max(axis=0),
-                                  panda.JERK_LIMITS))
-    qd_c, qdd_c, qddd_c = _derivatives(sim.q_des, dt, 3)
-    for name, value, limit in (("velocity", qd_c, panda.VELOCITY_LIMITS),
-                               ("acceleration", qdd_c, panda.ACCELERATION_LIMITS),
-                               ("jerk", qddd_c, panda.JERK_LIMITS)):
-        metrics.update(_limit_figures(f"commanded_joint_{name}", np.abs(value).max(axis=0),
-                                      limit))
+    sim_rate = 1.0 / dt
+    for name, value in (("velocity", np.abs(sim.qd).max(axis=0)),
+                        ("acceleration", np.abs(sim.qdd).max(axis=0)),
+                        ("jerk", limits.peak(sim.qdd, sim_rate, 1))):
+        metrics.update(limits.limit_figures(f"executed_joint_{name}", value,
+                                            limits.JOINT_LIMITS[name][1]))
+    for name, (order, limit) in limits.JOINT_LIMITS.items():
+        metrics.update(limits.limit_figures(f"commanded_joint_{name}",
+                                            limits.peak(sim.q_des, sim_rate, order), limit))
     for name, points in (("executed", sim.flange), ("commanded", sim.commanded_flange)):
-        velocity, acceleration = _derivatives(points, dt, 2)
-        speed = float(np.linalg.norm(velocity, axis=1).max())
-        accel = float(np.linalg.norm(acceleration, axis=1).max())
+        speed = limits.peak_norm(points, sim_rate, 1)
+        accel = limits.peak_norm(points, sim_rate, 2)
         metrics[f"{name}_flange_speed_max"] = speed
-        metrics[f"{name}_flange_speed_ratio"] = speed / panda.CARTESIAN_SPEED_LIMIT
+        metrics[f"{name}_flange_speed_ratio"] = speed / limits.CARTESIAN_SPEED_LIMIT
         metrics[f"{name}_flange_acceleration_max"] = accel
-        metrics[f"{name}_flange_acceleration_ratio"] = accel / panda.CARTESIAN_ACCELERATION_LIMIT
+        metrics[f"{name}_flange_acceleration_ratio"] = (
+            accel / limits.CARTESIAN_ACCELERATION_LIMIT)
 
     margin = int(round(edge_s * rate))
     touching = sim.contact[index]

@@ -1,5 +1,5 @@
 """The Franka Panda model shipped inside the ``example-robot-data`` wheel (URDF + meshes,
-no download), and its limits from Franka's datasheet.
+no download); its motion limits are in :mod:`inkmotion.robot.limits`.
 
 The wheel installs its robots under ``cmeel.prefix/share/example-robot-data/robots``; the
 files are found through the distribution's own file list, so no import of a module named
@@ -11,17 +11,8 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-import numpy as np
-
 from inkmotion.errors import InkmotionError
 
-#: Franka Panda joint limits (datasheet): velocity rad/s, acceleration rad/s², jerk rad/s³
-VELOCITY_LIMITS = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
-ACCELERATION_LIMITS = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
-JERK_LIMITS = np.array([7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0])
-#: Cartesian limits of the flange: speed m/s, acceleration m/s²
-CARTESIAN_SPEED_LIMIT = 1.7
-CARTESIAN_ACCELERATION_LIMIT = 13.0
 #: the arm's seven joints (the URDF also has two finger joints)
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 #: the frame the pen is mounted on (the flange)

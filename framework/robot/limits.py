@@ -1,0 +1,67 @@
+"""The Franka Panda's motion limits (Franka's datasheet) and how a sampled trajectory
+measures against them: the one place where a limit ratio is computed.
+
+Every time derivative behind a limit figure is the n-th finite difference at the sample
+rate f,
+
+    q⁽ⁿ⁾ ≈ Δⁿq · fⁿ,   Δq_k = q_{k+1} − q_k,
+
+the compact (n + 1)-sample stencil, centred at the middle of its samples with an error of
+n h² q⁽ⁿ⁺²⁾/24 (h = 1/f), and exact for a polynomial of degree n: between the knots of
+the planner's C² cubic spline, its piecewise-constant jerk comes out exactly. Repeated
+central differences (``np.gradient`` n times) widen the stencil to 2n + 1 samples, with a
+larger error (h² q⁽ⁿ⁺²⁾ n/6) and a blunted response to fast changes, and at the ends fall
+back to one-sided differences whose composition is inconsistent (the second derivative at
+the first sample is ½ Δ²q f²), which is why they are not used.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Franka Panda joint limits (datasheet): velocity rad/s, acceleration rad/s², jerk rad/s³
+VELOCITY_LIMITS = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
+ACCELERATION_LIMITS = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
+JERK_LIMITS = np.array([7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0])
+#: the joint limits by derivative order (1: velocity, 2: acceleration, 3: jerk)
+JOINT_LIMITS = {"velocity": (1, VELOCITY_LIMITS), "acceleration": (2, ACCELERATION_LIMITS),
+                "jerk": (3, JERK_LIMITS)}
+#: Cartesian limits of the flange: speed m/s, acceleration m/s²
+CARTESIAN_SPEED_LIMIT = 1.7
+CARTESIAN_ACCELERATION_LIMIT = 13.0
+
+
+def finite_difference(x: np.ndarray, rate: float, order: int) -> np.ndarray:
+    """The ``order``-th time derivative of ``x`` (N, ...) sampled at ``rate`` Hz, Δⁿx·fⁿ
+    (N − order, ...) (module docstring); empty when N ≤ order."""
+    return np.diff(x, n=order, axis=0) * rate**order
+
+
+def peak(x: np.ndarray, rate: float, order: int) -> np.ndarray:
+    """max_k |Δⁿx_k|·fⁿ per column of ``x`` (N, ...) → (...); zeros when N ≤ order."""
+    d = finite_difference(x, rate, order)
+    if len(d) == 0:
+        return np.zeros(np.shape(x)[1:])
+    return np.max(np.abs(d), axis=0)
+
+
+def peak_norm(x: np.ndarray, rate: float, order: int) -> float:
+    """max_k ‖Δⁿx_k‖·fⁿ of points ``x`` (N, 3) (e.g. the flange's speed for order 1);
+    0 when N ≤ order."""
+    d = finite_difference(x, rate, order)
+    return float(np.linalg.norm(d, axis=1).max()) if len(d) else 0.0
+
+
+def joint_limit_ratios(q: np.ndarray, rate: float) -> dict[str, np.ndarray]:
+    """Per joint, the peak |velocity|, |acceleration| and |jerk| of q (N, 7) sampled at
+    ``rate`` Hz over the Panda's limits (1 = at the limit), keyed by those three names."""
+    return {name: peak(q, rate, order) / limit
+            for name, (order, limit) in JOINT_LIMITS.items()}
+
+
+def limit_figures(name: str, peaks: np.ndarray, limit: np.ndarray) -> dict:
+    """``{name}_max`` (the per-joint peaks), ``{name}_ratio`` (peaks/limit) and
+    ``{name}_min_margin`` (1 − the largest ratio: how far the worst joint stays below)."""
+    ratio = peaks / limit
+    return {f"{name}_max": peaks.tolist(), f"{name}_ratio": ratio.tolist(),
+            f"{name}_min_margin": float(1.0 - ratio.max())}
