@@ -7,46 +7,19 @@ photo's (image loss 'clip-visual', paper eq. clip2), optionally with a varying w
 Artifacts: plan.json, drawing.svg, drawing.png, overlay.png (the drawing over the faded
 photo), speed.png, trajectory.csv, init.json, init.png (the start tour over the photo) and
 saliency.png, plus job.json, report.json and recording.rrd from the shell. The
-implementation is in :mod:`inkmotion.generation.run`; importing this module imports no torch.
+implementation is in :mod:`inkmotion.kinds.generation`; importing this module imports no torch.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from inkmotion.errors import SpecError
-from inkmotion.generation.params import GenerationParams
 from inkmotion.jobs.kind import InputSpec
-from inkmotion.jobs.params import PluginChoice, param, plugin_param
+from inkmotion.kinds.generation import AbstractParams
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
-
-
-@dataclass
-class AbstractParams(GenerationParams):
-    """Parameters of an abstraction (the shared ones are :class:`GenerationParams`)."""
-
-    targets: int = param(150, "Number of virtual targets of the tour (the paper's 150).",
-                         minimum=2, maximum=5000)
-    width: float = param(2.0, "Stroke width, px (the start width with --varying-width).",
-                         minimum=0.1, maximum=256)
-    caption: str = param("", "Optional caption, used by caption-aware saliency (clip).")
-    saliency: PluginChoice = plugin_param("saliency", "spectral",
-                                          "Saliency plugin that places the targets.")
-    initialiser: PluginChoice = plugin_param("initialiser", "voronoi-tsp",
-                                             "Initialiser plugin.")
-    losses: list[PluginChoice] = plugin_param("image-loss", "clip-visual",
-                                              "Image-loss plugin (repeatable).", many=True,
-                                              flag="--loss")
-
-    def validate(self) -> None:
-        super().validate()
-        if not self.losses:
-            raise SpecError("The abstract job needs at least one image loss "
-                            "(e.g. --loss clip-visual).")
 
 
 class AbstractKind:
@@ -69,7 +42,7 @@ class AbstractKind:
         return params.steps
 
     def run(self, job: Job) -> dict[str, Any]:
-        from inkmotion.generation.run import run_abstract
+        from inkmotion.kinds.generation import run_abstract
 
         return run_abstract(job)
 

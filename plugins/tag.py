@@ -7,41 +7,19 @@ keeps it a rapid, human-like ΣΛ motion.
 Artifacts: plan.json, drawing.svg, drawing.png, overlay.png (start in grey, result in
 colour), speed.png, trajectory.csv, init.json and init.png (the start plan), plus job.json,
 report.json and recording.rrd from the shell. The implementation is in
-:mod:`inkmotion.generation.run`; importing this module imports no torch.
+:mod:`inkmotion.kinds.generation`; importing this module imports no torch.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from inkmotion.errors import SpecError
-from inkmotion.generation.params import GenerationParams
 from inkmotion.jobs.kind import InputSpec
-from inkmotion.jobs.params import PluginChoice, param, plugin_param
+from inkmotion.kinds.generation import TagParams
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
-
-DEFAULT_CAPTION = "{word}, a stylish graffiti tag"
-
-
-@dataclass
-class TagParams(GenerationParams):
-    """Parameters of a tag (the shared ones are :class:`GenerationParams`)."""
-
-    caption: str = param(DEFAULT_CAPTION, "Caption CLIP matches; {word} is replaced by the word.")
-    initialiser: PluginChoice = plugin_param("initialiser", "line", "Initialiser plugin.")
-    losses: list[PluginChoice] = plugin_param("image-loss", "clip-text",
-                                              "Image-loss plugin (repeatable).", many=True,
-                                              flag="--loss")
-
-    def validate(self) -> None:
-        super().validate()
-        if not self.losses:
-            raise SpecError("The tag job needs at least one image loss (e.g. --loss clip-text).")
-
 
 class TagKind:
     """The 'tag' job kind (see the module docstring)."""
@@ -63,7 +41,7 @@ class TagKind:
         return params.steps
 
     def run(self, job: Job) -> dict[str, Any]:
-        from inkmotion.generation.run import run_tag
+        from inkmotion.kinds.generation import run_tag
 
         return run_tag(job)
 

@@ -14,8 +14,9 @@ import typer
 from rich.console import Console
 
 from inkmotion.cli.errors import fail
+from inkmotion.clip.weights import DEFAULT_MODEL as DEFAULT_CLIP_MODEL
+from inkmotion.clip.weights import DEFAULT_PRETRAINED as DEFAULT_CLIP_PRETRAINED
 from inkmotion.errors import InkmotionError
-from inkmotion.generation.params import DEFAULT_CLIP_MODEL, DEFAULT_CLIP_PRETRAINED
 
 out = Console()
 clip_app = typer.Typer(name="clip", help="CLIP weights: check what is available, download once.",

@@ -38,11 +38,13 @@ def render_cmd(
         fail("give the image to write: --out FILE.png.", code=2)
     if out.suffix.lower() != ".png":
         fail(f"--out {out}: render writes PNG images; name the file *.png.", code=2)
+    from inkmotion.plugin_host import plugin
     from inkmotion.rendering.render_plan import render_plan
 
     try:
-        figures = render_plan(plan, out, renderer=renderer, size=size, seed=seed,
-                              colour=colour, background=background)
+        raster = plugin("renderer", "raster") if renderer == "raster" else None
+        figures = render_plan(plan, out, renderer=renderer, raster=raster, size=size,
+                              seed=seed, colour=colour, background=background)
     except InkmotionError as exc:
         fail(exc)
     extra = f", {figures['drips']} drips" if "drips" in figures else ""

@@ -42,15 +42,16 @@ TraceTerm = Callable[[torch.Tensor, GridLayout, "int | None"], torch.Tensor]
 
 @dataclass(frozen=True)
 class Weights:
-    """Weights of the compound objective (defaults: the authors', λ tuned to 20)."""
+    """Weights of the compound objective. No defaults here: a job kind's parameters hold
+    them (:class:`inkmotion.kinds.optimisation.OptimisationParams`)."""
 
-    lambda_smooth: float = 20.0
-    w_image: float = 200.0
-    w_sigma: float = 50.0
-    w_canvas: float = 1.0
-    samples_per_move: int = 5
-    smooth_over: str = "path"  # "path" (the authors') or "drawing", see fitting.losses
-    w_trace: float = 0.0  # weight of the trace term (fitting.trace_loss), when there is one
+    lambda_smooth: float
+    w_image: float
+    w_sigma: float
+    w_canvas: float
+    samples_per_move: int
+    smooth_over: str  # "path" (the authors'), "drawing" or "pooled", see fitting.losses
+    w_trace: float  # weight of the trace term (fitting.trace_loss), when there is one
 
 
 @dataclass

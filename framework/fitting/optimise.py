@@ -35,31 +35,24 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 @dataclass(frozen=True)
 class OptimiserSettings:
-    """Adam settings of a fit (defaults: the authors')."""
+    """Adam settings of a fit. The tunables have no defaults here: a job kind's parameters
+    hold them (:class:`inkmotion.kinds.optimisation.OptimisationParams`)."""
 
-    steps: int = 300
-    lr_points: float = 2.0
-    lr_delta_t: float = 0.05
-    lr_delta: float = 0.1
-    lr_ac: float = 0.0  # 0 keeps Ac fixed
-    lr_final: float = 0.1  # cosine decay to this fraction
+    steps: int
+    lr_points: float  # px per step of the virtual targets
+    lr_delta_t: float
+    lr_delta: float
+    lr_ac: float  # 0 keeps Ac fixed
+    lr_final: float  # cosine decay to this fraction
     #: the decay's position: these steps run from step ``schedule_start`` of a schedule of
     #: ``schedule_total`` steps (None: ``steps``), so the stages of one fit share a decay
     schedule_start: int = 0
     schedule_total: int | None = None
     check_every: int = 25  # read the NaN flag from the device every k steps
-    #: px per step of a 3-D plan's radius. Adam moves a parameter by about its learning
-    #: rate per step, so 0.1 px crosses the whole default range (3.5 px) in ~40 steps of a
-    #: 300-step fit, while one step changes a stroke's width by ≤ 0.2 px, well inside the
-    #: 1-px anti-aliasing ramp whose gradient drives it (targets move 20× faster: they
-    #: travel tens of px, a radius a few)
-    lr_radius: float = 0.1
-    #: px, the clamp of a 3-D plan's radius. Below 0.5 px (a 1-px line) the coverage
-    #: clamp(r + ½ − d, 0, 1) never reaches full ink and a stroke could fade out to cheat
-    #: the image loss (a pen lift the motor plan does not have); 4 px (an 8-px brush, 2.3 %
-    #: of the 350-px canvas) brackets the 3-px default pen generously without letting
-    #: strokes blot out the shape, and bounds the renderer's patch size
-    radius_range: tuple[float, float] = (0.5, 4.0)
+    #: px per step of a 3-D plan's radius, and its clamp (lo, hi) px; a 3-D plan needs
+    #: both (the generation kinds' --lr-radius, --radius-min, --radius-max say why theirs)
+    lr_radius: float = 0.0
+    radius_range: tuple[float, float] | None = None
 
 
 @dataclass
@@ -176,6 +169,7 @@ class _Leaves:
         leaves = {k: getattr(src, k).clone().requires_grad_(True)
                   for k in ("points", "delta_t", "delta", "ac")}
         if three:
+            assert settings.radius_range is not None, "a 3-D plan needs radius_range"
             del leaves["points"]
             leaves["xy"] = src.points[:, :2].clone().requires_grad_(True)  # (N, 2)
             leaves["r"] = src.points[:, 2:].clone().requires_grad_(True)  # (N, 1)
@@ -211,7 +205,7 @@ class _Leaves:
         self.leaves["delta"].clamp_(*DELTA_RANGE)
         self.leaves["ac"].clamp_(*AC_RANGE)
         if self.three:
-            self.leaves["r"].clamp_(*settings.radius_range)
+            self.leaves["r"].clamp_(*settings.radius_range)  # type: ignore[misc]
 
     def plans(self) -> list[MotorPlan]:
         """Detached copies of the current plans."""

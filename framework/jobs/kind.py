@@ -30,7 +30,7 @@ from inkmotion.jobs.params import (
     parse,
     plugin_options,
 )
-from inkmotion.jobs.spec import JobSpec
+from inkmotion.jobs.spec import SPEC_VERSION, JobSpec
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,8 @@ class ResolvedJob:
 
     def full_spec(self) -> JobSpec:
         """The spec with every parameter and plugin option written out (defaults
-        included), so job.json reproduces the run even if a default changes later."""
+        included, an older spec version's where it left them out), as the current
+        version: job.json reproduces the run even if a default changes later."""
         params = {}
         for info in describe(self.kind.Params):
             value = getattr(self.params, info.name)
@@ -76,6 +77,7 @@ class ResolvedJob:
             params[info.name] = choices if info.many else choices[0]
         spec = self.spec.copy()
         spec.params = params
+        spec.version = SPEC_VERSION
         return spec
 
     def _full(self, choice: PluginChoice | None) -> dict[str, Any] | None:
@@ -104,7 +106,7 @@ def resolve(spec: JobSpec, source: str = "job spec", check_inputs: bool = True) 
     PluginError with one sentence."""
     kind = job_kind(spec.kind)
     _check_inputs(kind, spec, source, check_inputs)
-    params = parse(kind.Params, spec.params, source)
+    params = parse(kind.Params, spec.params, source, version=spec.version)
     check = getattr(params, "validate", None)
     if check is not None:
         check()
@@ -119,7 +121,7 @@ def resolve(spec: JobSpec, source: str = "job spec", check_inputs: bool = True) 
             from inkmotion.plugin_host import host
 
             plugin = host().get(info.plugin_kind, choice.name)
-            options[id(choice)] = plugin_options(plugin, choice, source)
+            options[id(choice)] = plugin_options(plugin, choice, source, spec.version)
     return ResolvedJob(spec, kind, params, options)
 
 

@@ -39,14 +39,41 @@ class PluginChoice:
 
 def param(default: Any, help: str, *, minimum: float | None = None,
           maximum: float | None = None, choices: tuple[str, ...] | None = None,
-          flag: str | None = None) -> Any:
+          flag: str | None = None, earlier: dict[int, Any] | None = None) -> Any:
     """A parameter field: its default, one line of help, optional bounds and choices.
 
     ``flag`` names the command-line option when it should differ from ``--field-name``.
+    ``earlier``: the defaults of older spec versions where they differ, ``{version: value}``
+    (a version takes the value of the nearest listed version at or above it, else
+    ``default``, :func:`default_for`), so a job.json of an older version that leaves the
+    field out runs as it did. The default and its history are written here only.
     """
     meta = {"help": help, "minimum": minimum, "maximum": maximum, "choices": choices,
-            "flag": flag}
+            "flag": flag, "earlier": dict(earlier or {})}
     return field(default=default, metadata=meta)
+
+
+def redefault(base: type, name: str, default: Any, help: str | None = None) -> Any:
+    """The field ``name`` of the parameters dataclass ``base`` (its help, bounds, flag)
+    with another default, for a kind that shares ``base``'s parameters but not all their
+    defaults; the base field's ``earlier`` defaults are the base's own history, not
+    carried over."""
+    base_field = {f.name: f for f in dataclasses.fields(base)}[name]
+    meta = {**base_field.metadata, "earlier": {}}
+    if help is not None:
+        meta["help"] = help
+    return field(default=default, metadata=meta)
+
+
+def default_for(info_or_field: Any, version: int | None) -> tuple[bool, Any]:
+    """(whether spec ``version`` had another default for this field, that default), from
+    the field's ``earlier`` history (:func:`param`); None: the current version."""
+    meta = getattr(info_or_field, "metadata", None)
+    earlier = (meta or {}).get("earlier") or {}
+    listed = sorted(v for v in earlier if version is not None and v >= version)
+    if not listed:
+        return False, None
+    return True, earlier[listed[0]]
 
 
 def plugin_param(kind: str, default: str | None, help: str, *, many: bool = False,
@@ -120,9 +147,12 @@ def _base_type(hint: Any) -> tuple[Any, bool]:
     return hint, optional
 
 
-def parse(cls: type, raw: Any, source: str, what: str = "parameter") -> Any:
+def parse(cls: type, raw: Any, source: str, what: str = "parameter",
+          version: int | None = None) -> Any:
     """An instance of the dataclass ``cls`` from a JSON object; a bad or unknown field
-    raises :class:`SpecError` naming it, the source and what is allowed."""
+    raises :class:`SpecError` naming it, the source and what is allowed. ``version``: the
+    spec version the object was written for; a field it leaves out takes that version's
+    default (:func:`default_for`)."""
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
@@ -133,6 +163,10 @@ def parse(cls: type, raw: Any, source: str, what: str = "parameter") -> Any:
         raise SpecError(f"{source}: unknown {what}(s) {', '.join(unknown)}; known {what}s are "
                         f"{', '.join(infos) or 'none'}.")
     values = {name: _value(infos[name], value, source) for name, value in raw.items()}
+    for f in dataclasses.fields(cls):
+        older, value = default_for(f, version)
+        if older and f.name not in values:
+            values[f.name] = _value(infos[f.name], value, source)
     return cls(**values)
 
 
@@ -205,16 +239,19 @@ def to_dict(params: Any) -> dict[str, Any]:
     return out
 
 
-def plugin_options(plugin: Any, choice: PluginChoice, source: str) -> Any:
-    """The plugin's options dataclass filled from ``choice.options`` (checked), or a plain
-    dict when the plugin declares none (then no options are allowed)."""
+def plugin_options(plugin: Any, choice: PluginChoice, source: str,
+                   version: int | None = None) -> Any:
+    """The plugin's options dataclass filled from ``choice.options`` (checked; options left
+    out take spec ``version``'s defaults), or a plain dict when the plugin declares none
+    (then no options are allowed)."""
     cls = getattr(plugin, "Options", None)
     if cls is None:
         if choice.options:
             raise SpecError(f"{source}: the {choice.kind} plugin {choice.name!r} takes no "
                             f"options; remove {', '.join(sorted(choice.options))}.")
         return None
-    return parse(cls, choice.options, f"{source}: {choice.kind} {choice.name!r}", "option")
+    return parse(cls, choice.options, f"{source}: {choice.kind} {choice.name!r}", "option",
+                 version)
 
 
 def options_dict(options: Any) -> dict[str, Any]:

@@ -11,14 +11,15 @@ and reproduce a run::
 ``params`` holds the kind's own fields (declared by the job-kind plugin, see
 :mod:`inkmotion.jobs.params`) with each plugin's options nested under its name. Version 1
 files (flat ``input``, ``initialiser``, ``renderer``, ``losses``, ``reader`` and a flat
-``params`` with ``dce_threshold`` and ``record_every``) are upgraded on load, so their
-job.json still reproduces their run. Version 2 differs from 3 only in the fit's defaults
-(3: the sparse, refined plan of issue 10 — DCE at the authors' canvas-relative relevance
-with initial turning angles, plan edits between stages, the drawing-wide smoothing cost,
-600 steps, λ = 45, w_σ = 10); :func:`upgrade_v2` writes version 2's defaults into a
-version-2 fit spec wherever it leaves a field out, so it runs as it did. Version 3 differs
-from 4 in the fit's defaults too (4: the trace term, plan edits rolled back when their
-refit is worse, merges that keep salient corners, issue 19): :func:`upgrade_v3`.
+``params`` with ``dce_threshold`` and ``record_every``) are laid out anew on load
+(:func:`upgrade_v1`, as version 2), so their job.json still reproduces their run.
+Versions 2, 3 and 4 share one layout and differ only in some defaults of the fit and of
+the dce initialiser (3: the sparse, refined plan of issue 10; 4: the trace term and
+rolled-back plan edits of issue 19). Those defaults are declared once, with their history,
+on the parameters themselves (``param(..., earlier={2: ...})``), so a spec keeps its
+version and a field it leaves out takes that version's default when it is resolved
+against its kind (:func:`inkmotion.jobs.kind.resolve`); job.json is then written as the
+current version with every field spelled out.
 """
 
 from __future__ import annotations
@@ -33,15 +34,6 @@ from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
 SPEC_VERSION = 4
-#: the fit parameters whose version-3 defaults differ from version 4's (4: the trace term,
-#: rolled-back plan edits and merges that keep salient corners, issue 19)
-V3_FIT_DEFAULTS = {"w_trace": 0.0, "rollback": False, "keep_corners": False,
-                   "smooth_over": "drawing"}
-#: the fit parameters whose version-2 defaults differ from version 3's
-V2_FIT_DEFAULTS = {"steps": 300, "lambda_smooth": 20.0, "w_sigma": 50.0, "smooth_over": "path",
-                   "targets": "default", "refine": 0}
-#: the dce initialiser's options of version 2 (its threshold was absolute, px·rad)
-V2_DCE_DEFAULTS = {"threshold": 1.0, "bend": False}
 DEFAULT_DEVICE = "auto"
 _FIELDS = ("version", "kind", "inputs", "seed", "device", "record_every", "params")
 
@@ -76,17 +68,13 @@ class JobSpec:
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "job spec") -> JobSpec:
-        """A spec from its JSON form (version 1, 2 or 3, or a job.json wrapping it)."""
+        """A spec from its JSON form (versions 1 to 4, or a job.json wrapping it)."""
         if not isinstance(d, dict):
             raise SpecError(f"{source}: a job spec must be a JSON object.")
         d = dict(d.get("spec", d))  # a job.json wraps the spec
         if d.get("version", 1) == 1 and "inputs" not in d:
             d = upgrade_v1(d, source)
-        if d.get("version") == 2:
-            d = upgrade_v2(d, source)
-        if d.get("version") == 3:
-            d = upgrade_v3(d, source)
-        if d.get("version") != SPEC_VERSION:
+        if d.get("version") not in range(2, SPEC_VERSION + 1):
             raise SpecError(f"{source}: spec version {d.get('version')!r} is not supported; "
                             f"this inkmotion reads versions 1 to {SPEC_VERSION}.")
         unknown = sorted(set(d) - set(_FIELDS))
@@ -119,46 +107,9 @@ def _check_types(spec: JobSpec, source: str) -> None:
         raise SpecError(f"{source}: device must be cpu, cuda, cuda:N or auto.")
 
 
-def upgrade_v2(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
-    """A version-2 spec as version 3: a fit spec gets version 2's defaults wherever it
-    leaves a parameter out (:data:`V2_FIT_DEFAULTS`; its dce initialiser
-    :data:`V2_DCE_DEFAULTS`, unless it gives a relevance), so it reproduces its run.
-    Other kinds are unchanged."""
-    d = copy.deepcopy(d)
-    d["version"] = 3
-    if d.get("kind", "fit") != "fit":
-        return d
-    params = d.get("params")
-    if not isinstance(params, dict):
-        return d  # refused by the type check
-    for key, value in V2_FIT_DEFAULTS.items():
-        params.setdefault(key, value)
-    init = params.get("initialiser", {"name": "dce"})
-    init = {"name": init} if isinstance(init, str) else init
-    if isinstance(init, dict) and init.get("name") == "dce":
-        if "relevance" not in init:
-            init.setdefault("threshold", V2_DCE_DEFAULTS["threshold"])
-        init.setdefault("bend", V2_DCE_DEFAULTS["bend"])
-        params["initialiser"] = init
-    return d
-
-
-def upgrade_v3(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
-    """A version-3 spec as version 4: a fit spec gets version 3's defaults
-    (:data:`V3_FIT_DEFAULTS`: no trace term, every plan edit kept, merges blind to corners)
-    wherever it leaves them out, so it reproduces its run. Other kinds are unchanged."""
-    d = copy.deepcopy(d)
-    d["version"] = SPEC_VERSION
-    params = d.get("params")
-    if d.get("kind", "fit") == "fit" and isinstance(params, dict):
-        for key, value in V3_FIT_DEFAULTS.items():
-            params.setdefault(key, value)
-    return d
-
-
 def upgrade_v1(d: dict[str, Any], source: str = "job spec") -> dict[str, Any]:
-    """A version-1 spec (the fit job's flat layout) in the version-2 layout (then made
-    version 3 by :func:`upgrade_v2`).
+    """A version-1 spec (the fit job's flat layout) in the version-2 layout; it then takes
+    version 2's defaults where it leaves a field out, like a version-2 spec.
 
     v1: ``{kind, input, initialiser, renderer, losses, reader, params: {..., dce_threshold,
     record_every}, seed, device}``; the DCE threshold moves under the initialiser, the

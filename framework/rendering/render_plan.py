@@ -9,11 +9,15 @@ what the preview shows. Raster coverage c gives the colour paper·(1 − c) + pa
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inkmotion.errors import InputError
 from inkmotion.rendering.spray_preview import SprayStyle, spray_preview
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import Renderer
 
 #: the largest output side, px (4000 px prints are the target; this bounds the memory)
 MAX_SIZE = 16384
@@ -30,35 +34,30 @@ def parse_colour(text: str, what: str) -> tuple[float, float, float]:
     return tuple(int(value[i:i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
 
 
-def raster_image(drawing: object, size: int, colour: tuple[float, float, float],
+def raster_image(drawing: object, renderer: Renderer, size: int,
+                 colour: tuple[float, float, float],
                  paper: tuple[float, float, float]) -> np.ndarray:
-    """RGB (H, W, 3) uint8 of the plan drawn by the 'raster' renderer at ``size`` px."""
+    """RGB (H, W, 3) uint8 of the plan drawn by ``renderer`` (the 'raster' plugin) at
+    ``size`` px."""
     import torch
 
-    import inkmotion
+    from inkmotion.rendering.drawing import render_plans
 
     canvas = drawing.canvas  # type: ignore[attr-defined]
     scale = size / max(float(canvas[0]), float(canvas[1]))
     width, height = max(1, round(canvas[0] * scale)), max(1, round(canvas[1] * scale))
-    render = inkmotion.plugin("renderer", "raster")
-    coverage = torch.zeros(height, width, dtype=torch.float32)
-    with torch.no_grad():
-        for plan in drawing.plans:  # type: ignore[attr-defined]
-            segments = inkmotion.bezier_segments(plan).detach().float() * scale
-            if segments.shape[2] == 3:  # the radius scales too (it is already scaled)
-                widths = torch.ones(len(segments))
-            else:
-                widths = torch.full((len(segments),), plan.width * scale)
-            coverage = torch.maximum(coverage, render(segments, widths, height, width))
+    coverage = render_plans(renderer, drawing.plans, (width, height), scale,  # type: ignore
+                            dtype=torch.float32)
     c = coverage.numpy()[..., None]
     rgb = np.asarray(paper)[None, None] * (1.0 - c) + np.asarray(colour)[None, None] * c
     return np.clip(np.round(rgb * 255.0), 0, 255).astype(np.uint8)
 
 
 def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "raster",
-                size: int = 1000, seed: int = 0, colour: str = "#141418",
-                background: str = "#ffffff") -> dict:
-    """Render ``plan_path`` into the PNG ``out``; returns the figures (size, drips, ...)."""
+                raster: Renderer | None = None, size: int = 1000, seed: int = 0,
+                colour: str = "#141418", background: str = "#ffffff") -> dict:
+    """Render ``plan_path`` into the PNG ``out``; returns the figures (size, drips, ...).
+    ``renderer`` 'raster' draws with ``raster`` (the caller's 'raster' renderer plugin)."""
     from inkmotion.sigma_lognormal import Drawing
 
     if renderer not in ("raster", "spray"):
@@ -73,7 +72,8 @@ def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "rast
         rgb = preview.rgb
         figures.update(seed=seed, drips=len(preview.drips))
     else:
-        rgb = raster_image(drawing, size, ink, paper)
+        assert raster is not None, "render_plan: the raster renderer is needed"
+        rgb = raster_image(drawing, raster, size, ink, paper)
     write_rgb_png(Path(out), rgb)
     figures.update(width=int(rgb.shape[1]), height=int(rgb.shape[0]))
     return figures

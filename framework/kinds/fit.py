@@ -1,0 +1,315 @@
+"""The 'fit' job kind's work: a ΣΛ motion fitted to a drawing (the paper's "fitting
+trajectories to an image"): read the input, initialise one motor plan per stroke, optimise
+them through the differentiable renderer against the image loss, the smoothing cost and
+the trace term in stages with plan edits between them (:mod:`inkmotion.fitting.stages`),
+write the artifacts. The plugin :mod:`inkmotion.plugins.fit` declares the kind.
+
+Artifacts: the plan's own (:func:`inkmotion.kinds.optimisation.write_plan_artifacts`),
+input.json, overlay.png, human_speeds.png when the input has time stamps (+ job.json,
+report.json and recording.rrd from the shell). The report adds to the plan's keys
+(:func:`~inkmotion.kinds.optimisation.plan_report`) the Chamfer distance between the input
+polylines and the fitted trajectory, the share of Δt at a clamp bound, the fit's speed
+peaks, the recorded ones when there are time stamps, the quality verdict and the record of
+each fit stage; its ``metrics`` go to the job store.
+
+Importing this module imports no torch (the command line lists kinds at once).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from inkmotion.errors import SpecError
+from inkmotion.jobs.params import PluginChoice, param, plugin_param
+from inkmotion.kinds.optimisation import OptimisationParams
+
+if TYPE_CHECKING:
+    from inkmotion.fitting.stages import RefineSettings, StagedFit, StagedProblem
+    from inkmotion.jobs.shell import Job
+
+
+@dataclass
+class FitParams(OptimisationParams):
+    """Parameters of a fit; defaults are the authors' except
+    where ``inkmotion benchmark`` over the real tags said otherwise, at the authors' plan
+    density (DCE relevance 2.5, 29–32 sub-movements on the paper's tags): 600 steps (300
+    left T_end at 0.50–0.52× and the max Chamfer at 5–7 px; 600 reach 0.47–0.49× and
+    3–4 px), λ = 45 and w_σ = 10 (the authors' w_σ = 50 forces equal overlaps along a
+    path, so corners and smooth runs get the same Δt: 10 lets smooth runs overlap more at
+    the same fit; λ = 60 made strokes of temptTag-2010_7_29 swap ink, max 28 px), the
+    smoothing cost over the whole drawing, and two rounds of plan edits. Each field's
+    ``earlier`` holds the defaults of older spec versions (2: the authors' objective and
+    no plan edits; 3: no trace term, every edit kept, merges blind to corners)."""
+
+    w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
+                           "from the input polylines, both ways (0: the image alone).",
+                           minimum=0, earlier={3: 0.0})
+    smooth_over: str = param("pooled", "The minimum-time cost: 'pooled' (ΣT_end/Σm and one "
+                             "Var(Δt) over all the drawing's overlaps), 'drawing' (ΣT_end/Σm, "
+                             "Var(Δt) per path, averaged) or 'path' (the authors': mean over "
+                             "paths of T_end/m + w_σ·Var(Δt)).",
+                             choices=("pooled", "drawing", "path"),
+                             earlier={3: "drawing", 2: "path"})
+    targets: str = param("default", "Sub-movements: 'default' (the initialiser's sparse "
+                         "plan, refined), N (about N in all) or 'auto' (the fewest that "
+                         "reach --max-error).")
+    refine: int = param(2, "Edits of the plan between fit stages in 'default' mode (targets "
+                        "where the fit misses most, merges where Δt is pinned); 0: none.",
+                        minimum=0, maximum=10, earlier={2: 0})
+    merge: bool = param(True, "Merge two sub-movements whose overlap Δt sits on its floor "
+                        "between fit stages.")
+    rollback: bool = param(True, "Undo a plan edit whose refit fits the input worse (by "
+                           "Chamfer mean/0.6 + max/8 px at 350 px) and go on from before it.",
+                           earlier={3: False})
+    keep_corners: bool = param(True, "Merges never remove the target of a sharp corner or "
+                               "hook of the input (a turn of 60° or more).", earlier={3: False})
+    max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
+                             minimum=0.05)
+    reader: PluginChoice | None = plugin_param(
+        "reader", None, "Reader plugin (default: the first that accepts the input).")
+    initialiser: PluginChoice = plugin_param("initialiser", "dce", "Initialiser plugin.")
+    losses: list[PluginChoice] = plugin_param("image-loss", "mse",
+                                              "Image-loss plugin (repeatable).", many=True,
+                                              flag="--loss")
+
+    def validate(self) -> None:
+        if not self.losses:
+            raise SpecError("The fit job needs at least one image loss (e.g. --loss mse).")
+        target_count(self.targets)  # refuses anything but default, auto or a count
+
+    def refine_settings(self) -> RefineSettings:
+        """How the fit edits its plan between stages (:mod:`inkmotion.fitting.stages`)."""
+        from inkmotion.fitting.stages import RefineSettings
+
+        count = target_count(self.targets)
+        mode = self.targets if count is None else "fixed"
+        return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
+                              max_error=self.max_error, rollback=self.rollback,
+                              protect_corners=self.keep_corners)
+
+
+def target_count(targets: str) -> int | None:
+    """The N of ``--targets N``; None for 'default' and 'auto'; a SpecError otherwise."""
+    if targets in ("default", "auto"):
+        return None
+    try:
+        n = int(targets)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise SpecError(f"--targets {targets!r} must be 'default', 'auto' or a number of "
+                        "sub-movements of at least 1, e.g. --targets 30.")
+    return n
+
+
+def run(job: Job) -> dict[str, Any]:
+    """Fit one drawing (the module docstring); the report."""
+    from inkmotion.kinds.optimisation import optimise_plans
+
+    problem, finish = _prepare(job)
+    return finish(optimise_plans(problem))
+
+
+def run_together(jobs: list[Job]) -> list[dict[str, Any] | BaseException]:
+    """Several fit jobs as one batched optimisation
+    (:func:`~inkmotion.fitting.stages.fit_together_in_stages`), each with its own
+    input, plan edits, observers, checkpoints and artifacts: a report per job, or the
+    error of a job whose input could not be read (the others go on without it)."""
+    from inkmotion.errors import InkmotionError
+    from inkmotion.fitting.stages import fit_together_in_stages
+    from inkmotion.jobs.shell import seed_everything
+
+    outcomes: list[Any] = []
+    for job in jobs:
+        seed_everything(job.spec.seed)  # as run_job seeds a job before its run
+        try:
+            outcomes.append(_prepare(job))
+        except InkmotionError as exc:
+            outcomes.append(exc)
+    ready = [o for o in outcomes if not isinstance(o, BaseException)]
+    staged = iter(fit_together_in_stages([problem for problem, _ in ready]) if ready
+                  else [])
+    return [o if isinstance(o, BaseException) else o[1](next(staged)) for o in outcomes]
+
+
+def _prepare(job: Job) -> tuple[StagedProblem, Any]:
+    """Read, initialise and set up the optimisation of a fit job: its
+    :class:`~inkmotion.fitting.stages.StagedProblem`, and the function that writes the
+    artifacts of its staged fit and returns the report."""
+    import numpy as np
+    import torch
+
+    from inkmotion.fitting.objective import Objective
+    from inkmotion.kinds.optimisation import image_losses, staged_problem
+    from inkmotion.kinds.read import read_input
+    from inkmotion.plugin_host.protocols import JobInputs, Reference
+    from inkmotion.rendering.drawing import render_polylines
+
+    p: FitParams = job.params
+    dtype = torch.float32
+    source = job.spec.inputs["drawing"]
+    traces = read_input(source, reader=p.reader.name if p.reader else None)
+    traces = traces.fit_to_canvas(p.size)
+    canvas = (int(traces.width), int(traces.height))
+    renderer = job.plugin(p.renderer)
+    initialise = job.plugin(p.initialiser)
+    options = dict(width=p.width, dtype=dtype, device=job.device, **job.options(p.initialiser))
+    plans = initialise(JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
+                       **options)
+    asked = _targets_note(p, plans)
+    target = render_polylines(renderer, traces.strokes, p.width, canvas, dtype, job.device)
+    objective = Objective(renderer, image_losses(job, Reference(image=target)), canvas,
+                          p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace),
+                          trace=_trace_term(traces, plans, dtype, job.device)
+                          if p.w_trace > 0 else None)
+    job.start(canvas, target, traces.strokes)
+    strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
+
+    def finish(staged: StagedFit) -> dict[str, Any]:
+        report = _write(job, traces, staged, canvas, target)
+        notes = _ignored_options(p) + ([asked] if asked else [])
+        if notes:
+            report["warnings"] = [*notes, *report.get("warnings", [])]
+        return report
+
+    return staged_problem(job, plans, objective, p.optimiser_settings(), strokes,
+                          p.refine_settings()), finish
+
+
+def _ignored_options(p: FitParams) -> list[str]:
+    """Warnings for options set away from their defaults that the chosen ``--targets`` mode
+    does not use (every option a user sets takes effect or says why not)."""
+    from dataclasses import fields
+
+    defaults = {f.name: f.default for f in fields(FitParams)}
+    only = {"max_error": ("auto",), "refine": ("default",), "merge": ("default",),
+            "rollback": ("default",), "keep_corners": ("default",)}
+    mode = p.targets if p.targets in ("default", "auto") else "N"
+    out = []
+    for name, modes in only.items():
+        value = getattr(p, name)
+        if mode not in modes and value != defaults[name]:
+            flag = "--" + ("no-" if value is False else "") + name.replace("_", "-")
+            out.append(f"{flag} applies to --targets {' or '.join(modes)} only; with "
+                       f"--targets {p.targets} it has no effect.")
+    return out
+
+
+def _targets_note(p: FitParams, plans: list) -> str | None:
+    """A warning when ``--targets N`` could not be met within 25 %: how many sub-movements
+    the initialiser placed instead and why."""
+    n = target_count(p.targets)
+    made = sum(plan.m for plan in plans)
+    if n is None or abs(made - n) <= 0.25 * n:
+        return None
+    why = (" (it places targets on input vertices only, and this input has no more)"
+           if made < n and p.initialiser.name == "dce" else "")
+    return (f"--targets {n}: the {p.initialiser.name} initialiser made {made} sub-movements "
+            f"on this input{why}; the fit uses those.")
+
+
+def _trace_term(traces: Any, plans: list, dtype: Any, device: Any) -> Any:
+    """The trace term of the fit (:mod:`inkmotion.fitting.trace_loss`), each stroke owned by
+    the paths whose initial trajectory follows it."""
+    from inkmotion.fitting.quality import REFERENCE_SIZE
+    from inkmotion.fitting.trace_loss import TraceLoss, TraceReference
+    from inkmotion.outputs.sampling import on_cpu, sample
+
+    unit = max(traces.width, traces.height) / REFERENCE_SIZE
+    reference = TraceReference.of(traces.validated().strokes, dtype=dtype, device=device,
+                                  unit=unit)
+    owners = reference.ownership([sample(on_cpu(p)).positions for p in plans])
+    return TraceLoss(reference, owners)
+
+
+def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
+           target: Any) -> dict:
+    """The fit's artifacts (from CPU copies of the plans) and its report."""
+    import json
+
+    from inkmotion.evaluation.fit_motion import delta_t_at_clamp, fit_speed_peaks
+    from inkmotion.fitting.quality import chamfer_of
+    from inkmotion.kinds.optimisation import plan_report, write_plan_artifacts
+    from inkmotion.outputs import write_overlay
+    from inkmotion.outputs.sampling import on_cpu
+    from inkmotion.sigma_lognormal import Drawing
+
+    folder = job.folder
+    fit = staged.result
+    plans = [on_cpu(p) for p in fit.plans]
+    size = (float(canvas[0]), float(canvas[1]))
+    rendered = fit.rendered.cpu()
+    report = plan_report(job, staged, plans, canvas)
+    report.update(write_plan_artifacts(job, plans, rendered, canvas))
+    chamfer_mean, chamfer_max = chamfer_of(traces.strokes, plans)
+    drawing = Drawing(size, plans)
+    metrics = report["metrics"]
+    metrics.update(chamfer_mean_px=chamfer_mean, chamfer_max_px=chamfer_max,
+                   t_end_ratio_multi=t_end_ratio_multi(staged),
+                   delta_t_at_clamp=delta_t_at_clamp(plans),
+                   fit_speed_peaks=fit_speed_peaks(drawing))
+    report.update(t_end_ratio_multi=metrics["t_end_ratio_multi"],
+                  chamfer_mean_px=chamfer_mean, chamfer_max_px=chamfer_max,
+                  delta_t_at_clamp=metrics["delta_t_at_clamp"],
+                  speed_peaks=metrics["fit_speed_peaks"], stages=staged.stages)
+    report.update(quality_verdict(traces, plans, size, chamfer_max, job.params))
+    metrics["quality"] = report["quality"]
+    recorded = _recorded_peaks(job, drawing)
+    if recorded is not None:
+        report["recorded"] = recorded
+        metrics["recorded_peaks"] = recorded["recorded_peaks"]
+        metrics["matched_peaks"] = recorded["matched_peaks"]
+    (folder / "input.json").write_text(json.dumps(
+        {"canvas": {"width": canvas[0], "height": canvas[1]},
+         "traces": [s.tolist() for s in traces.strokes]}))
+    write_overlay(folder / "overlay.png", target.cpu(), rendered, traces=traces.strokes,
+                  positions=[p.points.numpy() for p in plans])
+    return report
+
+
+def quality_verdict(traces: Any, plans: list, size: tuple[float, float], chamfer_max: float,
+                    p: FitParams) -> dict[str, Any]:
+    """``quality`` ("good" or "poor": the max Chamfer distance ``chamfer_max`` above 8 px at
+    350 px, scaled with the canvas, :mod:`inkmotion.fitting.quality`) and, when poor,
+    ``quality_figures`` and one warning naming where the fit misses most and what to try
+    (only then is the worst miss looked for)."""
+    from inkmotion.fitting.quality import poor_above, worst_miss
+
+    longer = max(size)
+    limit = poor_above(longer)
+    if chamfer_max <= limit:
+        return {"quality": "good"}
+    miss = worst_miss([s[:, :2] for s in traces.strokes], plans)
+    tries = []
+    if p.targets != "auto":
+        tries.append("--targets auto")
+    tries.append(f"--steps {2 * p.steps}")
+    if p.renderer.name != "raster":
+        tries.append("--renderer raster")
+    x, y = miss.point
+    warning = (f"the fit misses stroke {miss.stroke + 1} of {len(traces.strokes)} by "
+               f"{miss.distance:.1f} px near ({x:.0f}, {y:.0f}) px (more than "
+               f"{limit:.1f} px on this {longer:.0f}-px canvas); try {' or '.join(tries)}.")
+    return {"quality": "poor", "warnings": [warning],
+            "quality_figures": {"worst_stroke": miss.stroke, "worst_point_px": [x, y],
+                                "worst_distance_px": miss.distance, "poor_above_px": limit}}
+
+
+def t_end_ratio_multi(staged: Any) -> float:
+    """T_end after / before the fit over the paths that began with 2 or more sub-movements
+    (a single lognormal has no overlap to shorten); NaN when there is none."""
+    multi = [i for i, m in enumerate(staged.initial_path_moves) if m >= 2]
+    before = sum(staged.initial_t_end[i] for i in multi)
+    after = sum(staged.result.final_t_end[i] for i in multi)
+    return after / before if before > 0 else float("nan")
+
+
+def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:
+    """The recorded motion's duration and speed peaks and how the fit's match them, when the
+    input carries time stamps (the evaluation's human agreement; its plot is
+    human_speeds.png); None otherwise."""
+    from inkmotion.evaluation.fit_motion import recorded_agreement
+
+    return recorded_agreement(job.spec.inputs["drawing"], drawing,
+                              job.folder / "human_speeds.png")
