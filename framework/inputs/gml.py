@@ -1,5 +1,5 @@
 """GML parsing: Graffiti Markup Language tags in XML (spec 1.0) and the 000000book JSON form,
-read into traces (the 'gml' reader plugin, :mod:`inkmotion.plugins.gml`, wraps it).
+read into traces (the 'gml' reader plugin wraps it).
 
 Accepted inputs (the plugin picks them by file suffix ``.gml``, ``.json``, ``.jsonp``,
 ``.js``, or ``.xml`` whose root element is ``<gml>``):

@@ -1,5 +1,5 @@
 """Text rendering: ``text:WORD`` drawn with a Hershey single-line script font (the 'text'
-reader plugin, :mod:`inkmotion.plugins.hershey`, wraps it).
+reader plugin wraps it).
 
 Uses the ``HersheyFonts`` package (pip distribution ``Hershey-Fonts``), whose fonts are
 built in, so a demo needs no data files. The default font is ``scripts`` (Hershey Script

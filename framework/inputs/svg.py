@@ -1,5 +1,5 @@
 """SVG parsing: vector paths and basic shapes into polylines, one stroke per subpath (the
-'svg' reader plugin, :mod:`inkmotion.plugins.svg`, wraps it).
+'svg' reader plugin wraps it).
 
 Parsing, units, ``viewBox`` and nested ``transform`` attributes are handled by
 `svgelements <https://github.com/meerk40t/svgelements>`_ (``SVG.parse`` reifies every

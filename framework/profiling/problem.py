@@ -37,13 +37,19 @@ def synthetic_plans(moves: tuple[int, ...] = MOVES, size: int = CANVAS, seed: in
 def fit_problem(device: torch.device | str = "cpu", moves: tuple[int, ...] = MOVES,
                 static: bool | None = None, check_every: int = 0) -> tuple[Objective, PlanBatch]:
     """An objective (raster renderer, multi-scale MSE against the targets' polylines) and a
-    batch whose points, Δt and δ require grad, as the optimiser holds them."""
+    batch whose points, Δt and δ require grad, as the optimiser holds them.
+
+    The renderer is the raster engine's :class:`~inkmotion.rendering.raster.RasterSession`
+    set up as the 'raster' plugin's ``session`` sets it up for a fit, so the figures are the
+    plugin's without the profiler reaching up to the plugins."""
     from inkmotion.image_losses.multiscale_mse import prepare_multiscale_mse
-    from inkmotion.plugins.raster import RasterRenderer
-    from inkmotion.rendering.raster import render_segments
+    from inkmotion.rendering.raster import RasterSession, render_segments
 
     src = PlanBatch.from_plans(synthetic_plans(moves, device=device))
-    renderer = RasterRenderer()
+    # the session the 'raster' plugin gives a fit: static budgets off the CPU unless told
+    # otherwise, no value checks
+    session_static = static if static is not None else src.points.device.type != "cpu"
+    renderer = RasterSession(static=session_static, check=False)
     with torch.no_grad():
         a, b = src.points[:-1], src.points[1:]
         lines = torch.stack((a, a + (b - a) / 3, a + 2 * (b - a) / 3, b), 1)  # (., 4, 2)
