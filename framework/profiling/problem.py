@@ -16,6 +16,10 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 #: sub-movements per path of the default problem: 162 in all, like a tag of the paper
 MOVES = (40, 50, 72)
 CANVAS = 350
+#: the problem's objective weights: the authors' (λ = 20, w_σ = 50, per-path smoothing),
+#: fixed here so the profiled step stays the same problem whatever a job kind's defaults
+WEIGHTS = Weights(lambda_smooth=20.0, w_image=200.0, w_sigma=50.0, w_canvas=1.0,
+                  samples_per_move=5, smooth_over="path", w_trace=0.0)
 
 
 def synthetic_plans(moves: tuple[int, ...] = MOVES, size: int = CANVAS, seed: int = 0,
@@ -55,7 +59,7 @@ def fit_problem(device: torch.device | str = "cpu", moves: tuple[int, ...] = MOV
         lines = torch.stack((a, a + (b - a) / 3, a + 2 * (b - a) / 3, b), 1)  # (., 4, 2)
         target = render_segments(lines, 3.0, CANVAS, CANVAS)
     objective = Objective(renderer, {"mse": prepare_multiscale_mse(target)}, (CANVAS, CANVAS),
-                          Weights(), static=static, check_every=check_every)
+                          WEIGHTS, static=static, check_every=check_every)
     leaves = [t.clone().requires_grad_(True) for t in (src.points, src.delta_t, src.delta)]
     return objective, PlanBatch(*leaves, src.ac, src.T, src.moves, src.widths)
 
