@@ -184,7 +184,7 @@ def test_report_records_the_thread_count(tmp_path):
 
 
 def test_balanced_chunks_fill_every_worker_and_keep_each_item_once(tmp_path):
-    from inkmotion.evaluation.benchmark import balanced_chunks
+    from inkmotion.benchmarks.quality import balanced_chunks
 
     sources = []
     for k in range(20):

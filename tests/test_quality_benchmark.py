@@ -13,8 +13,8 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
+from inkmotion.benchmarks import quality as bm
 from inkmotion.errors import InputError, SpecError
-from inkmotion.evaluation import benchmark as bm
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
 """``inkmotion benchmark INPUTS... --out DIR``: the quality benchmark (did a change make
-fitting better?). The work is in :mod:`inkmotion.evaluation.benchmark`, imported when the
+fitting better?). The work is in :mod:`inkmotion.benchmarks.quality`, imported when the
 command runs, so start-up stays light."""
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def benchmark_cmd(
     """
     if out_dir is None:
         fail("give the output folder: --out DIR.", code=2)
-    from inkmotion.evaluation.benchmark import parse_param, run_benchmark
+    from inkmotion.benchmarks.quality import parse_param, run_benchmark
 
     try:
         params = dict(parse_param(p) for p in param or [])

@@ -13,7 +13,7 @@ import html
 from pathlib import Path
 from typing import Any
 
-from inkmotion.evaluation.benchmark import (
+from inkmotion.benchmarks.quality import (
     AGGREGATE_HEADER,
     aggregate_rows,
     format_value,

@@ -141,7 +141,7 @@ def fit_params(steps: int | None, size: int | None, params: dict[str, Any] | Non
     ``PLUGIN_PARAM.OPTION`` sets an option of the plugin that parameter chooses (its
     default plugin unless the same call names another)."""
     from inkmotion.jobs.params import describe
-    from inkmotion.plugins.fit import FitParams
+    from inkmotion.kinds.fit import FitParams
 
     out: dict[str, Any] = {}
     for key, value in (params or {}).items():
@@ -190,7 +190,7 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     from inkmotion.evaluation.fit_motion import delta_t_at_clamp
     from inkmotion.geometry.traces import Traces
     from inkmotion.json_files import read_json
-    from inkmotion.plugins.fit import traces_to_segments
+    from inkmotion.rendering.drawing import render_polylines
     from inkmotion.sigma_lognormal import Drawing
 
     source = read_json(item_dir / "input.json", InputError, "input file")
@@ -198,11 +198,9 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     drawing = Drawing.load(item_dir / "plan.json")
     render = inkmotion.plugin("renderer", "raster")
     stroke = drawing.plans[0].width
+    traces = Traces([np.asarray(s, dtype=np.float64) for s in source["traces"]])
+    target = render_polylines(render, traces.strokes, stroke, (width, height))  # (H, W)
     with torch.no_grad():
-        traces = Traces([np.asarray(s, dtype=np.float64) for s in source["traces"]])
-        target_segments = traces_to_segments(traces, torch.float32, "cpu")
-        target = render(target_segments, torch.full((len(target_segments),), stroke),
-                        height, width)  # (H, W)
         fitted = torch.zeros_like(target)
         for plan in drawing.plans:
             segments = inkmotion.bezier_segments(plan).detach()
@@ -485,7 +483,7 @@ def summarise(rows: list[dict[str, Any]], wall_s: float) -> dict:
 
 def write_summary(out: Path, summary: dict) -> None:
     """summary.json, summary.csv, summary.md and summary.html in ``out``."""
-    from inkmotion.evaluation.report_html import write_html, write_markdown
+    from inkmotion.benchmarks.quality_report import write_html, write_markdown
 
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=_json_default))
     write_csv(out / "summary.csv", summary)
