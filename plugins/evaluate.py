@@ -10,7 +10,8 @@ time stamps) also the agreement of the fit's speed peaks with the human's.
 Artifacts: evaluation.json, evaluation.csv, speeds.png (the three speed profiles on one
 time axis), minima.png (speed minima colour-coded along the path, the paper's Fig. 3c/d),
 human_speeds.png (with a recording), job.json, report.json. Implementation:
-:mod:`inkmotion.evaluation.evaluate`; importing this module imports no torch.
+:mod:`inkmotion.kinds.evaluate` (the comparison itself in
+:mod:`inkmotion.evaluation.comparison`); importing this module imports no torch.
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ class EvaluateKind:
         return 4  # one per timing (of each path; the job says how many paths it times)
 
     def run(self, job: Job) -> dict[str, Any]:
-        from inkmotion.evaluation.evaluate import run_evaluate
+        from inkmotion.kinds.evaluate import run_evaluate
 
         return run_evaluate(job)
 

@@ -29,9 +29,13 @@ class FrankaSim:
     Options = FrankaSimOptions
 
     def execute(self, program: Any, folder: Path, **options: Any) -> dict:
+        """Run the engine with the 'raster' renderer plugin for plan_drawing.png (looked up
+        here: the robot engine does not reach into the plugin host)."""
+        from inkmotion.plugin_host import host
         from inkmotion.robot.backends import execute_franka_sim
 
-        return execute_franka_sim(program, Path(folder), **options)
+        renderer = host().get("renderer", "raster")
+        return execute_franka_sim(program, Path(folder), renderer, **options)
 
     def replay(self, program: Any, figures: dict, stream: Any) -> None:
         """Log the execution into the job's rerun recording (a time timeline)."""

@@ -11,7 +11,8 @@ controller, 'export' writes it for a real controller.
 Artifacts: joints.csv, cartesian.csv, setup.toml (as used), the backends' files
 (franka-sim: executed.csv, sim_drawing.png, side_by_side.png; export: export/...), plus
 job.json, report.json and recording.rrd (the execution replayed on a time timeline).
-The implementation is in :mod:`inkmotion.robot.job`; importing this module imports no torch.
+The work is in :mod:`inkmotion.kinds.simulate` (the robot engine in :mod:`inkmotion.robot`);
+importing this module imports no torch.
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ class SimulateKind:
         return 2 + len(params.backends)  # timing, joints, one per backend
 
     def run(self, job: Job) -> dict[str, Any]:
-        from inkmotion.robot.job import run_simulate
+        from inkmotion.kinds.simulate import run_simulate
 
         return run_simulate(job)
 

@@ -59,7 +59,7 @@ def test_msj_at_equal_duration_removes_the_time_scaling() -> None:
     import numpy as np
 
     from inkmotion.evaluation import metrics as M
-    from inkmotion.evaluation.evaluate import ratio_row
+    from inkmotion.evaluation.comparison import ratio_row
 
     def figures(duration: float) -> dict[str, float]:
         tau = np.linspace(0.0, 1.0, 2001)

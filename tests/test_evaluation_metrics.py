@@ -229,7 +229,8 @@ def test_real_tags_carry_times_and_agree_with_a_plan(tmp_path):
     assert [len(t) for t in traces.meta["t"]] == [len(s) for s in traces.strokes]
     plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
     drawing = Drawing((traces.width, traces.height), plans)
-    got = H.human_agreement_from_files(source, drawing, tmp_path / "human.png")
+    got = H.human_agreement_of_traces(read_input(source), drawing, tmp_path / "human.png",
+                                      source)
     print(got["total"])
     assert got["has_times"] and got["time_unit"] == "s"
     assert got["strokes_paired"] == len(traces.strokes)
@@ -245,6 +246,7 @@ def test_item_figures_of_a_timed_tag(tmp_path):
 
     from inkmotion.evaluation.fit_motion import item_figures
     from inkmotion.initialisers.dce import dce
+    from inkmotion.kinds.evaluate import recorded_agreement
     from inkmotion.kinds.read import read_input
     from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
 
@@ -253,7 +255,9 @@ def test_item_figures_of_a_timed_tag(tmp_path):
     plans = [MotorPlan.from_points(dce(s, threshold=20.0), dtype=torch.float64)
              for s in traces.strokes]
     Drawing((traces.width, traces.height), plans).save(tmp_path / "plan.json")
-    got = item_figures(tmp_path, source)
+    human = recorded_agreement(source, Drawing.load(tmp_path / "plan.json"),
+                               tmp_path / "human_speeds.png")
+    got = item_figures(tmp_path, human)
     print(got)
     assert got["fit_speed_peaks"] >= len(plans)
     assert got["recorded_peaks"] > len(plans)
@@ -264,5 +268,7 @@ def test_item_figures_of_a_timed_tag(tmp_path):
     assert got["totg_duration"] < 1.0 and got["minjerk_duration"] > 0
     assert all(math.isfinite(got[k]) for k in ("minjerk_msj", "minjerk_ldj", "totg_msj",
                                                 "totg_ldj"))
-    words = item_figures(tmp_path, "text:hi", ratios=False)
+    assert recorded_agreement("text:hi", Drawing.load(tmp_path / "plan.json"),
+                              tmp_path / "unused.png") is None
+    words = item_figures(tmp_path, None, ratios=False)
     assert set(words) == {"fit_speed_peaks"}

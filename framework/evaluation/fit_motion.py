@@ -1,7 +1,7 @@
 """Motion figures of a fitted drawing, for the quality benchmark and the fit's report: the
 fit's speed peaks, their agreement with the recorded human motion when the input carries
 time stamps (:mod:`inkmotion.evaluation.human`, the paper's Fig. 2c), and the paper's
-evaluation ratios (:func:`inkmotion.evaluation.evaluate.compare`, section "Evaluation") on
+evaluation ratios (:func:`inkmotion.evaluation.comparison.compare`, section "Evaluation") on
 the drawing's longest path under the default robot limits.
 
 Speed peaks are counted per path with :func:`inkmotion.evaluation.metrics.speed_peaks`
@@ -54,25 +54,10 @@ def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
     return int(clamped.sum()) / len(overlaps)
 
 
-def recorded_agreement(source: str, drawing: Any, png: Path) -> dict[str, Any] | None:
-    """Recorded duration and peaks, fit peaks matched to them and their mean offset along
-    the trace, when ``source`` is a file whose points carry time stamps (else None); the
-    plot of both speed profiles goes to ``png``."""
-    from inkmotion.evaluation.human import human_agreement_from_files
-    from inkmotion.inputs.sources import is_scheme
-
-    if is_scheme(source) or not Path(source).is_file():
-        return None
-    result = human_agreement_from_files(source, drawing, png)
-    if not result.get("has_times"):
-        return None
-    return dict(result["total"])
-
-
 def evaluation_ratios(drawing: Any) -> dict[str, float]:
     """The paper's ratios method/ΣΛ (> 1: ΣΛ better) of duration, MSJ and LDJ for minimum
     jerk and time-optimal timing of the longest path, at :data:`V_MAX`, :data:`A_MAX`."""
-    from inkmotion.evaluation.evaluate import choose_path, compare, paper_scale
+    from inkmotion.evaluation.comparison import choose_path, compare, paper_scale
 
     plan = drawing.plans[choose_path(drawing, -1)]
     c = compare(plan, V_MAX, A_MAX, paper_scale(drawing.canvas), RATE)
@@ -82,7 +67,8 @@ def evaluation_ratios(drawing: Any) -> dict[str, float]:
 
 
 def recorded_columns(human: dict[str, Any]) -> dict[str, Any]:
-    """The benchmark's columns of a recorded agreement (:func:`recorded_agreement`)."""
+    """The benchmark's columns of a recorded agreement
+    (:func:`inkmotion.kinds.evaluate.recorded_agreement`)."""
     return {"recorded_peaks": human["recorded_peaks"], "matched_peaks": human["matched_peaks"],
             "recorded_duration_s": human["recorded_duration_s"],
             "peak_offset": human["mean_position_offset"]}
@@ -97,16 +83,17 @@ def report_figures(report: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def item_figures(item_dir: Path, source: str, *, ratios: bool = True) -> dict[str, Any]:
-    """The motion figures of the fit in ``item_dir`` (its plan.json) of ``source``:
-    ``fit_speed_peaks``; with time stamps ``recorded_peaks``, ``matched_peaks``,
-    ``recorded_duration_s``, ``peak_offset`` (normalised arc length) and human_speeds.png;
-    with ``ratios`` the evaluation ratios (``minjerk_duration``, ..., ``totg_ldj``)."""
+def item_figures(item_dir: Path, human: dict[str, Any] | None, *, ratios: bool = True
+                 ) -> dict[str, Any]:
+    """The motion figures of the fit in ``item_dir`` (its plan.json): ``fit_speed_peaks``;
+    with ``human`` (the recording's agreement, :func:`inkmotion.kinds.evaluate.
+    recorded_agreement`, None without time stamps) ``recorded_peaks``, ``matched_peaks``,
+    ``recorded_duration_s``, ``peak_offset`` (normalised arc length); with ``ratios`` the
+    evaluation ratios (``minjerk_duration``, ..., ``totg_ldj``)."""
     from inkmotion.sigma_lognormal import Drawing
 
     drawing = Drawing.load(Path(item_dir) / "plan.json")
     out: dict[str, Any] = {"fit_speed_peaks": fit_speed_peaks(drawing)}
-    human = recorded_agreement(source, drawing, Path(item_dir) / "human_speeds.png")
     if human is not None:
         out.update(recorded_columns(human))
     if ratios:

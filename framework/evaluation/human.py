@@ -28,7 +28,7 @@ that normalised arc length.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -36,6 +36,9 @@ from scipy.optimize import linear_sum_assignment
 
 from inkmotion.errors import InputError
 from inkmotion.evaluation.metrics import speed_peaks
+
+if TYPE_CHECKING:
+    from inkmotion.geometry.traces import Traces
 
 #: a recording whose longest stroke lasts more than this (in its own unit) is in ms
 MS_THRESHOLD = 100.0
@@ -217,27 +220,27 @@ def _pair(recorded: list[np.ndarray], fitted: list[np.ndarray]) -> list[int]:
     return [int(cols[list(rows).index(i)]) if i in rows else -1 for i in range(len(recorded))]
 
 
-def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,
-                               **options: Any) -> dict[str, Any]:
+def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, source: str,
+                              **options: Any) -> dict[str, Any]:
     """Agreement of ``drawing`` (a :class:`~inkmotion.sigma_lognormal.Drawing` fitted to
-    ``recording``) with the recording's timed motion; writes the speed plot to ``png``.
+    the recording ``source``, read into ``traces`` by the caller) with the recording's timed
+    motion; writes the speed plot to ``png``.
 
     The recording is mapped onto the drawing's canvas as the fit job does
     (``fit_to_canvas(max(canvas))``), the plans are sampled uniformly in time. A recording
     without times gives {"has_times": False, ...} and no plot. ``options`` go to
-    :func:`human_agreement`."""
-    from inkmotion.kinds.read import read_input
+    :func:`human_agreement`. Reading the file is the kinds' part (it asks the reader
+    plugins), so this engine takes the traces."""
     from inkmotion.outputs.sampling import sample
 
-    traces = read_input(recording)
     if traces.meta.get("t") is None:
         return {"has_times": False,
-                "note": f"{recording}: the points carry no time stamps, so there is no "
+                "note": f"{source}: the points carry no time stamps, so there is no "
                         "recorded speed to compare with."}
     traces = traces.fit_to_canvas(max(drawing.canvas))
     times, unit = times_in_seconds(traces.meta["t"])
     if [len(t) for t in times] != [len(s) for s in traces.strokes]:
-        raise InputError(f"{recording}: the time stamps do not line up with the points.")
+        raise InputError(f"{source}: the time stamps do not line up with the points.")
     samples = [sample(plan) for plan in drawing.plans]
     index = _pair(traces.strokes, [s.positions for s in samples])
     kept = [i for i, j in enumerate(index) if j >= 0]

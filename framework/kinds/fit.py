@@ -309,7 +309,7 @@ def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:
     """The recorded motion's duration and speed peaks and how the fit's match them, when the
     input carries time stamps (the evaluation's human agreement; its plot is
     human_speeds.png); None otherwise."""
-    from inkmotion.evaluation.fit_motion import recorded_agreement
+    from inkmotion.kinds.evaluate import recorded_agreement
 
     return recorded_agreement(job.spec.inputs["drawing"], drawing,
                               job.folder / "human_speeds.png")

@@ -16,26 +16,29 @@ SimResult travels under the private key ``_result`` for :func:`replay`.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from inkmotion.robot.types import RobotProgram
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import RenderFunction
 
 #: figures of the execution copied into the job store's metrics
 STORE_METRICS = ("tracking_down_plane_rms_mm", "tracking_down_plane_max_mm",
                  "contact_coverage", "real_time_factor")
 
 
-def render_plan_png(path: Path, plan_file_drawing: Any, canvas: tuple[float, float]) -> None:
-    """The plan drawn by the 'raster' renderer, ink black on white, at its canvas size."""
+def render_plan_png(path: Path, plan_file_drawing: Any, canvas: tuple[float, float],
+                    renderer: RenderFunction) -> None:
+    """The plan drawn by ``renderer`` (the job's 'raster' renderer plugin, handed down by
+    the backend's plugin), ink black on white, at its canvas size."""
     import torch
 
     from inkmotion.geometry.bezier import bezier_segments
     from inkmotion.outputs import write_png
-    from inkmotion.plugin_host import host
 
-    renderer = host().get("renderer", "raster")
     with torch.no_grad():
         segments = [bezier_segments(p) for p in plan_file_drawing.plans]
         widths = torch.cat([torch.full((len(s),), p.width, dtype=s.dtype)
@@ -44,9 +47,10 @@ def render_plan_png(path: Path, plan_file_drawing: Any, canvas: tuple[float, flo
     write_png(path, image)
 
 
-def execute_franka_sim(program: RobotProgram, folder: Path, replay_rate: float = 30.0
-                       ) -> dict:
-    """Simulate ``program`` and write its files into ``folder`` (see the module docstring)."""
+def execute_franka_sim(program: RobotProgram, folder: Path, renderer: RenderFunction,
+                       replay_rate: float = 30.0) -> dict:
+    """Simulate ``program`` and write its files into ``folder`` (see the module docstring);
+    ``renderer`` draws plan_drawing.png."""
     from inkmotion.robot.mujoco_sim import execution_metrics, simulate
     from inkmotion.robot.scene import build_scene
     from inkmotion.robot.sim_drawing import write_side_by_side, write_sim_drawing
@@ -68,7 +72,7 @@ def execute_franka_sim(program: RobotProgram, folder: Path, replay_rate: float =
     if drawing is not None:
         # OpenCV's anti-aliased lines of thickness t cover about t + 1 px
         width_px = max(1.0, float(np.mean([p.width for p in drawing.plans])) - 1.0)
-        render_plan_png(folder / "plan_drawing.png", drawing, program.canvas)
+        render_plan_png(folder / "plan_drawing.png", drawing, program.canvas, renderer)
     write_sim_drawing(folder / "sim_drawing.png", sim.contact_strokes(), plane.origin,
                       plane.rotation, tuple(setup.paper), canvas,
                       mapping=program.mapping.plane_to_px, width_px=width_px)

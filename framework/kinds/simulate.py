@@ -1,9 +1,12 @@
-"""The 'simulate' job kind's work: setup → timing → joint trajectory → backends.
+"""The 'simulate' job kind's work: setup → robot program (timing, joint trajectory) →
+every chosen robot backend.
 
 Stages are reported as steps (1: timing, 2: joint trajectory, then one per backend), so
 the progress bar and the job store follow a long simulation. Everything that can refuse
 the job (setup file, plan file, reachability) runs before any motion is planned in full;
-nothing is written until the plan is known to be feasible.
+nothing is written until the plan is known to be feasible. The backends are the job's
+``robot-backend`` plugins, looked up here and handed the program: the robot engine never
+sees the plugin host.
 """
 
 from __future__ import annotations
@@ -15,16 +18,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from inkmotion.events import StepState
-from inkmotion.robot.types import RobotProgram
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
     from inkmotion.robot.setup import RobotSetup
-    from inkmotion.sigma_lognormal import Drawing
+    from inkmotion.robot.types import RobotProgram
 
 
 def job_setup(setup_path: str, v_max: float, a_max: float) -> RobotSetup:
-    """The setup file (or the shipped default) with the job's speed limits when given."""
+    """The setup file (or the shipped default) with the job's speed limits when given
+    (0: the setup's own)."""
     from inkmotion.robot.setup import load_setup
 
     overrides: dict[str, Any] = {}
@@ -33,35 +36,6 @@ def job_setup(setup_path: str, v_max: float, a_max: float) -> RobotSetup:
     if a_max > 0:
         overrides["a_max"] = a_max
     return load_setup(setup_path or None, overrides or None)
-
-
-def plan_program(drawing: Drawing, setup: RobotSetup,
-                 on_stage: Any = None) -> RobotProgram:
-    """Time the drawing on the setup and solve its joint trajectory (raises InputError with
-    one sentence for an unreachable drawing, before any joint trajectory is solved)."""
-    from inkmotion.robot.calibration import PaperMapping
-    from inkmotion.robot.joints import solve_joint_trajectory
-    from inkmotion.robot.kinematics import check_reachable, pen_model, pen_poses
-    from inkmotion.robot.timing import time_drawing
-
-    t0 = time.perf_counter()
-    mapping = PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin)
-    home_tip, _ = pen_poses(pen_model(setup.pen_length), setup.home[None])
-    cartesian = time_drawing(drawing, setup, start=home_tip[0], mapping=mapping)
-    check_reachable(cartesian.position, cartesian.normal, setup.pen_length,
-                    joint_margin=setup.joint_margin, stroke=cartesian.stroke)
-    timing_s = time.perf_counter() - t0
-    if on_stage is not None:
-        on_stage(1, "timing")
-    t1 = time.perf_counter()
-    joints = solve_joint_trajectory(cartesian, pen_length=setup.pen_length, home=setup.home,
-                                    joint_margin=setup.joint_margin, q_start=setup.home)
-    joints_s = time.perf_counter() - t1
-    if on_stage is not None:
-        on_stage(2, "joints")
-    info = {"timing_s": round(timing_s, 3), "joints_s": round(joints_s, 3),
-            "planning_s": round(timing_s + joints_s, 3)}
-    return RobotProgram(setup, mapping, drawing.canvas, cartesian, joints, info, drawing)
 
 
 def write_program(folder: Path, program: RobotProgram) -> None:
@@ -78,7 +52,9 @@ def write_program(folder: Path, program: RobotProgram) -> None:
 
 
 def run_simulate(job: Job) -> dict[str, Any]:
-    """Load the plan and the setup, plan the robot program, run every backend."""
+    """Load the plan and the setup, plan the robot program, run every backend; the report
+    holds the timing, the joint trajectory's figures, the setup and each backend's figures."""
+    from inkmotion.robot.program import plan_program
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params

@@ -1,5 +1,6 @@
-"""The 'evaluate' job kind's work (paper, section "Evaluation"): three timings of one path
-of a plan under the same limits, their metrics, the ratios method/ΣΛ, and the plots.
+"""The paper's evaluation of a ΣΛ motion (section "Evaluation"): three timings of one path
+of a plan under the same limits, their metrics and the ratios method/ΣΛ — the engine of
+the 'evaluate' kind (:mod:`inkmotion.kinds.evaluate` reads the plan and writes the files).
 
 Units: the plan is in canvas px; the limits are the robot's (m/s, m/s²). The canvas is put
 on the setup's paper (:class:`inkmotion.robot.calibration.PaperMapping`, scale s m/px), so
@@ -14,18 +15,12 @@ a faster timing has a larger MSJ for being faster alone (MSJ ∝ T⁻⁶), which
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from inkmotion.errors import InputError
-from inkmotion.events import StepState
-
-if TYPE_CHECKING:
-    from inkmotion.jobs.shell import Job
 
 #: the methods, in the table's order: ΣΛ, path-constrained minimum jerk with optimised
 #: passage times through the via points, the same with the ΣΛ trajectory's own passage
@@ -136,56 +131,7 @@ def ratio_row(method: dict[str, float], sigma: dict[str, float]) -> dict[str, fl
     return out
 
 
-def run_evaluate(job: Job) -> dict[str, Any]:
-    """Time, measure, compare and plot the job's plan: every path (``--path -1``: the
-    figures per path and over the whole drawing, :func:`total_figures`) or one path."""
-    from inkmotion.evaluation import metrics as M
-    from inkmotion.sigma_lognormal import Drawing
-
-    p = job.params
-    drawing = Drawing.load(job.spec.inputs["plan"])
-    scale = paper_scale(drawing.canvas, p.setup)
-    indices = list(range(len(drawing.plans))) if p.path < 0 else [choose_path(drawing, p.path)]
-    shown = choose_path(drawing, p.path)  # the longest, or the one asked for: the plots
-    job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
-    n = len(METHODS)
-    per_path: dict[int, Comparison] = {}
-    for j, index in enumerate(indices):
-        per_path[index] = compare(
-            drawing.plans[index], p.v_max, p.a_max, scale, p.rate,
-            progress=lambda k, j=j: job.observers.on_step(
-                StepState(j * n + k, n * len(indices), {}, 0.0)))
-    table = _over_paths(per_path)
-    ratios, holds = ratios_and_directions(table)
-    sigma = per_path[shown].timed[METHODS[0]]
-    minima = M.speed_minima_at_curvature_maxima(sigma.position * scale, 1.0 / p.rate)
-    doc = {"path": "all" if p.path < 0 else shown, "moves": sum(drawing.plans[i].m
-                                                                for i in indices),
-           "v_max": p.v_max, "a_max": p.a_max, "m_per_px": scale, "methods": table,
-           "ratios": ratios, "paper_direction_holds": holds,
-           "paths": [{"path": i, "moves": drawing.plans[i].m, "methods": c.table,
-                      "ratios": c.ratios, "paper_direction_holds": c.holds}
-                     for i, c in per_path.items()],
-           "plotted_path": shown, "speed_minima_at_curvature_maxima": minima,
-           "method_notes": {"time-optimal": "TOPP-RA (toppra), standing in for TOTG",
-                            "minimum-jerk": "passage times through the via points optimised",
-                            "minimum-jerk-sigma-times": "the ΣΛ trajectory's own passage "
-                            "times through the same via points"}}
-    if p.recording:
-        doc["human"] = human_figures(p.recording, drawing, job.folder)
-    (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
-    write_csv(job.folder / "evaluation.csv", table, ratios,
-              per_path if len(per_path) > 1 else None)
-    from inkmotion.evaluation.plots import plot_minima, plot_speeds
-
-    plot_speeds(job.folder / "speeds.png", per_path[shown].timed, scale)
-    plot_minima(job.folder / "minima.png", sigma.position, 1.0 / p.rate, drawing.canvas)
-    print_table(table, ratios, f"evaluation, {len(indices)} path(s)")
-    metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
-    return {**doc, "metrics": metrics}
-
-
-def _over_paths(per_path: dict[int, Comparison]) -> dict[str, dict[str, float]]:
+def over_paths(per_path: dict[int, Comparison]) -> dict[str, dict[str, float]]:
     """Each method's figures over the paths (:func:`total_figures`); one path's as they are."""
     if len(per_path) == 1:
         return next(iter(per_path.values())).table
@@ -205,52 +151,3 @@ def method_figures(path: Any, scale: float, rate: float) -> dict[str, float]:
     figures = dict(M.trajectory_metrics(path.position * scale, 1.0 / rate))
     figures["inverse_duration"] = 1.0 / figures["duration"]
     return {k: (float(v) if np.ndim(v) == 0 else v) for k, v in figures.items()}
-
-
-def human_figures(recording: str, drawing: Any, folder: Path) -> dict[str, Any]:
-    """Agreement of the fit's speed peaks with the recorded motion's (when it has times)."""
-    from inkmotion.evaluation.human import human_agreement_from_files
-
-    return human_agreement_from_files(recording, drawing, folder / "human_speeds.png")
-
-
-def write_csv(path: Path, table: dict, ratios: dict,
-              per_path: dict[int, Comparison] | None = None) -> None:
-    """evaluation.csv: one row per method (duration, MSJ, LDJ, ..., MSJ·T⁶ in the
-    msj_equal_duration column) and the ratio rows, over the drawing; with ``per_path``
-    the same rows of each path after them, named ``path N: ...``."""
-    keys = ["duration", "inverse_duration", "peak_speed", "speed_peaks", "msj", "ldj",
-            "msj_equal_duration"]
-    lines = ["row," + ",".join(keys)]
-
-    def rows(prefix: str, table: dict, ratios: dict) -> None:
-        for name, figures in table.items():
-            row = {**figures, "msj_equal_duration": figures["msj"] * figures["duration"] ** 6}
-            lines.append(prefix + name + "," + ",".join(f"{row[k]:.6g}" for k in keys))
-        for name, r in ratios.items():
-            row = {"duration": r["duration"], "inverse_duration": 1.0 / r["duration"],
-                   "msj": r["msj"], "ldj": r["ldj"],
-                   "msj_equal_duration": r["msj_equal_duration"]}
-            lines.append(f"{prefix}{name}/sigma-lognormal," + ",".join(
-                f"{row[k]:.6g}" if k in row else "" for k in keys))
-
-    rows("", table, ratios)
-    for index, c in (per_path or {}).items():
-        rows(f"path {index}: ", c.table, c.ratios)
-    path.write_text("\n".join(lines) + "\n")
-
-
-def print_table(table: dict, ratios: dict, title: str = "evaluation") -> None:
-    """The table on the terminal (rich)."""
-    from rich.console import Console
-    from rich.table import Table
-
-    t = Table("", "duration s", "1/duration", "MSJ m²/s⁶", "LDJ", "MSJ·T⁶", title=title)
-    for name, f in table.items():
-        t.add_row(name, f"{f['duration']:.3f}", f"{f['inverse_duration']:.4f}",
-                  f"{f['msj']:.4g}", f"{f['ldj']:.3f}", f"{f['msj'] * f['duration'] ** 6:.4g}")
-    for name, r in ratios.items():
-        t.add_row(f"{name}/ΣΛ (>1: ΣΛ better)", f"{r['duration']:.3f}",
-                  f"{1.0 / r['duration']:.3f}", f"{r['msj']:.3f}", f"{r['ldj']:.3f}",
-                  f"{r['msj_equal_duration']:.3f}")
-    Console(stderr=True).print(t)

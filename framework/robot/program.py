@@ -1,0 +1,49 @@
+"""A robot program from a drawing: the drawing timed on the setup's paper, then the joint
+trajectory that draws it (the engine behind the 'simulate' kind, and any other kind that
+drives the arm).
+
+Everything that can refuse the drawing (reachability of every sample) runs before the
+joint trajectory is solved in full, so an unreachable drawing costs a timing, not a solve.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from inkmotion.robot.types import RobotProgram
+
+if TYPE_CHECKING:
+    from inkmotion.robot.setup import RobotSetup
+    from inkmotion.sigma_lognormal import Drawing
+
+
+def plan_program(drawing: Drawing, setup: RobotSetup,
+                 on_stage: Callable[[int, str], None] | None = None) -> RobotProgram:
+    """Time the drawing on the setup and solve its joint trajectory (raises InputError with
+    one sentence for an unreachable drawing, before any joint trajectory is solved);
+    ``on_stage(1, "timing")`` and ``on_stage(2, "joints")`` report the two stages."""
+    from inkmotion.robot.calibration import PaperMapping
+    from inkmotion.robot.joints import solve_joint_trajectory
+    from inkmotion.robot.kinematics import check_reachable, pen_model, pen_poses
+    from inkmotion.robot.timing import time_drawing
+
+    t0 = time.perf_counter()
+    mapping = PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin)
+    home_tip, _ = pen_poses(pen_model(setup.pen_length), setup.home[None])
+    cartesian = time_drawing(drawing, setup, start=home_tip[0], mapping=mapping)
+    check_reachable(cartesian.position, cartesian.normal, setup.pen_length,
+                    joint_margin=setup.joint_margin, stroke=cartesian.stroke)
+    timing_s = time.perf_counter() - t0
+    if on_stage is not None:
+        on_stage(1, "timing")
+    t1 = time.perf_counter()
+    joints = solve_joint_trajectory(cartesian, pen_length=setup.pen_length, home=setup.home,
+                                    joint_margin=setup.joint_margin, q_start=setup.home)
+    joints_s = time.perf_counter() - t1
+    if on_stage is not None:
+        on_stage(2, "joints")
+    info = {"timing_s": round(timing_s, 3), "joints_s": round(joints_s, 3),
+            "planning_s": round(timing_s + joints_s, 3)}
+    return RobotProgram(setup, mapping, drawing.canvas, cartesian, joints, info, drawing)
