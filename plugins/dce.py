@@ -23,14 +23,16 @@ if TYPE_CHECKING:
 
 @dataclass
 class DceOptions:
-    """Options of the 'dce' initialiser."""
+    """Options of the 'dce' initialiser. Spec version 2 placed targets by an absolute
+    threshold of 1 px·rad and started every δ at 0 (``earlier``)."""
 
     relevance: float = param(DEFAULT_RELEVANCE, "Plan density: the authors' DCE relevance "
                              "(turning ° × l1·l2/(l1+l2) ÷ canvas size) a target must exceed; "
                              "the same plan at any canvas size.", minimum=0)
     threshold: float | None = param(None, "Absolute DCE threshold, px·rad (overrides "
-                                    "--dce-relevance).", minimum=0)
-    bend: bool = param(True, "Start each δ at the trace's bend between targets (else 0).")
+                                    "--dce-relevance).", minimum=0, earlier={2: 1.0})
+    bend: bool = param(True, "Start each δ at the trace's bend between targets (else 0).",
+                       earlier={2: False})
 
 
 class DceInitialiser:

@@ -1,6 +1,7 @@
-"""Checkpoints: a fit interrupted mid-run and run again with the same checkpoint file
+"""Checkpoints: a job interrupted mid-run and run again with the same checkpoint file
 resumes from its last checkpoint and ends with the plan of an uninterrupted run, bit for
-bit on the CPU, also across the plan edits between stages."""
+bit on the CPU: a fit, also across the plan edits between stages, and the CLIP-driven
+tag and abstract, which optimise through the same core."""
 
 from __future__ import annotations
 
@@ -83,3 +84,37 @@ def test_a_torn_checkpoint_is_ignored(tmp_path: Path) -> None:
     assert ck.load() == {"x": 1, "step": 5}
     assert Checkpoints(path, {"a": 2}).load() is None  # another spec
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
+
+
+TINY_CLIP = str(Path(__file__).parent / "data" / "clip" / "tiny-vit.json")
+
+
+def generation_spec(kind: str, inputs: dict[str, str]) -> JobSpec:
+    extra = {"targets": 20, "varying_width": True} if kind == "abstract" else {}
+    return JobSpec(kind=kind, inputs=inputs, device="cpu", record_every=0,
+                   params={"steps": 40, "size": 64, "clip_model": TINY_CLIP,
+                           "clip_weights": "random", **extra})
+
+
+@pytest.mark.parametrize("kind", ["tag", "abstract"])
+def test_a_resumed_generation_equals_an_uninterrupted_one(tmp_path: Path, kind: str) -> None:
+    """A tag (random augmentations each step: the RNG state is part of the checkpoint)
+    and a varying-width abstraction crash at step 27 and resume from step 20."""
+    if kind == "abstract":
+        from test_generation import write_photo
+
+        inputs = {"image": str(write_photo(tmp_path / "photo.png", 64))}
+    else:
+        inputs = {"word": "CREAM"}
+    job = generation_spec(kind, inputs)
+    run_job(job, tmp_path / "whole")
+    checkpoint = tmp_path / "checkpoint.pt"
+    with pytest.raises(Crash):
+        run_job(job, tmp_path / "a", observers=[CrashAt(27)], checkpoint=checkpoint,
+                checkpoint_every=10, checkpoint_s=1e9)
+    assert checkpoint.is_file() and not (tmp_path / "a").exists()
+    report = run_job(job, tmp_path / "a", checkpoint=checkpoint, checkpoint_every=10,
+                     checkpoint_s=1e9)
+    assert report["resumed_from_step"] == 20 and report["steps"] == 40
+    assert (tmp_path / "a" / "plan.json").read_bytes() == \
+        (tmp_path / "whole" / "plan.json").read_bytes()

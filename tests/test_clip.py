@@ -41,6 +41,10 @@ from inkmotion.plugin_host.protocols import Reference
 from inkmotion.profiling import count_host_syncs
 from inkmotion.sigma_lognormal.batch import PlanBatch
 
+#: the image loss alone (the engine keeps no defaults of its own)
+IMAGE_ONLY = Weights(lambda_smooth=0.0, w_image=1.0, w_sigma=50.0, w_canvas=1.0,
+                     samples_per_move=5, smooth_over="path", w_trace=0.0)
+
 TINY = str(Path(__file__).parent / "data" / "clip" / "tiny-vit.json")
 CANVAS = 64
 
@@ -306,7 +310,7 @@ def test_gradients_reach_every_motor_plan_parameter(device: torch.device) -> Non
         batch = PlanBatch(leaves["points"], leaves["delta_t"], leaves["delta"], leaves["ac"],
                           src.T, src.moves, src.widths)
         objective = Objective(renderer, {name: loss}, (CANVAS, CANVAS),
-                              Weights(lambda_smooth=0.0, w_image=1.0))
+                              IMAGE_ONLY)
         torch.manual_seed(5)
         objective(batch).total.backward()
         for key, leaf in leaves.items():
@@ -318,10 +322,12 @@ def test_gradients_reach_every_motor_plan_parameter(device: torch.device) -> Non
 def _fit(loss: object, device: torch.device, steps: int = 30) -> tuple[torch.Tensor, ...]:
     """(initial, final) renderings of a 30-step fit of the zigzag under ``loss`` alone."""
     objective = Objective(inkmotion.plugin("renderer", "raster"), {"clip": loss},
-                          (CANVAS, CANVAS), Weights(lambda_smooth=0.0, w_image=1.0))
+                          (CANVAS, CANVAS), IMAGE_ONLY)
     with torch.no_grad():
         initial = objective(PlanBatch.from_plans(zigzag(device))).rendered
-    fit = optimise(zigzag(device), objective, OptimiserSettings(steps=steps))
+    settings = OptimiserSettings(steps, lr_points=2.0, lr_delta_t=0.05, lr_delta=0.1, lr_ac=0.0,
+                                 lr_final=0.1)
+    fit = optimise(zigzag(device), objective, settings)
     return initial, fit.rendered
 
 

@@ -67,30 +67,38 @@ def test_v3_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     assert written["params"]["keep_corners"] is False
     bare = JobSpec.from_dict({"version": 4, "kind": "fit", "inputs": {"drawing": "x"},
                               "params": {}})
-    assert bare.params == {}  # version 4 leaves its own defaults to the kind
+    assert bare.params == {}  # the spec leaves the defaults to the kind
 
 
 def test_a_v2_spec_keeps_the_v2_defaults() -> None:
-    """A version-2 spec that leaves the changed defaults out runs with version 2's; one that
-    gives them keeps what it gives; other kinds are unchanged."""
-    bare = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
-                              "params": {}})
-    assert bare.version == 4
-    assert bare.params["steps"] == 300 and bare.params["lambda_smooth"] == 20.0
-    assert bare.params["w_sigma"] == 50.0 and bare.params["refine"] == 0
-    assert bare.params["smooth_over"] == "path"
-    assert bare.params["initialiser"] == {"name": "dce", "threshold": 1.0, "bend": False}
-    given = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
-                               "params": {"steps": 9, "initialiser": {"name": "dce",
-                                                                      "threshold": 20.0}}})
-    assert given.params["steps"] == 9
-    assert given.params["initialiser"] == {"name": "dce", "threshold": 20.0, "bend": False}
-    line = JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
-                              "params": {"initialiser": "line"}})
-    assert line.params["initialiser"] == "line"
-    tag = JobSpec.from_dict({"version": 2, "kind": "tag", "inputs": {"caption": "x"},
-                             "params": {"steps": 5}})
-    assert tag.params == {"steps": 5} and tag.version == 4
+    """A version-2 spec that leaves the changed defaults out runs with version 2's (declared
+    on the parameters, ``earlier``); one that gives them keeps what it gives; other kinds
+    are unchanged; job.json spells them out as version 4."""
+    def full(spec: dict) -> dict:
+        job = resolve(JobSpec.from_dict(spec), check_inputs=False)
+        written = job.full_spec()
+        assert written.version == 4
+        return written.params
+
+    bare = full({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    assert bare["steps"] == 300 and bare["lambda_smooth"] == 20.0
+    assert bare["w_sigma"] == 50.0 and bare["refine"] == 0
+    assert bare["smooth_over"] == "path" and bare["w_trace"] == 0.0
+    assert bare["rollback"] is False and bare["keep_corners"] is False
+    assert bare["initialiser"] == {"name": "dce", "relevance": 2.5, "threshold": 1.0,
+                                   "bend": False}
+    given = full({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
+                  "params": {"steps": 9, "initialiser": {"name": "dce", "threshold": 20.0}}})
+    assert given["steps"] == 9
+    assert given["initialiser"]["threshold"] == 20.0 and given["initialiser"]["bend"] is False
+    line = full({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
+                 "params": {"initialiser": "line"}})
+    assert line["initialiser"]["name"] == "line"
+    v3 = full({"version": 3, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    assert v3["steps"] == 600 and v3["smooth_over"] == "drawing" and v3["w_trace"] == 0.0
+    assert v3["initialiser"]["threshold"] is None and v3["initialiser"]["bend"] is True
+    tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
+    assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
 
 
 def test_job_json_holds_every_parameter_and_option() -> None:

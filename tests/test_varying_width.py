@@ -34,6 +34,17 @@ from inkmotion.recording import RerunRecorder, entity_paths
 from inkmotion.rendering.raster import plan_budget, render_segments, render_segments_static
 from inkmotion.sigma_lognormal.batch import PlanBatch
 
+#: the authors' objective and Adam settings (the engine keeps no defaults of its own), with
+#: the generation kinds' radius settings
+AUTHORS = Weights(lambda_smooth=20.0, w_image=200.0, w_sigma=50.0, w_canvas=1.0,
+                  samples_per_move=5, smooth_over="path", w_trace=0.0)
+
+
+def settings_of(steps: int, lr_radius: float = 0.1,
+                radius_range: tuple[float, float] = (0.5, 4.0)) -> OptimiserSettings:
+    return OptimiserSettings(steps, lr_points=2.0, lr_delta_t=0.05, lr_delta=0.1, lr_ac=0.0,
+                             lr_final=0.1, lr_radius=lr_radius, radius_range=radius_range)
+
 SVG = "{http://www.w3.org/2000/svg}"
 Render = Callable[..., torch.Tensor]
 
@@ -168,7 +179,7 @@ STROKE = [[20.0, 30.0], [60.0, 40.0], [95.0, 70.0], [100.0, 105.0]]
 def _objective(target: torch.Tensor, static: bool | None = None) -> Objective:
     """Objective with the 'raster' renderer and the 'mse' loss, as plugins/fit.py wires it."""
     loss = inkmotion.plugin("image-loss", "mse").prepare(Reference(image=target))
-    return Objective(inkmotion.plugin("renderer", "raster"), {"mse": loss}, CANVAS, Weights(),
+    return Objective(inkmotion.plugin("renderer", "raster"), {"mse": loss}, CANVAS, AUTHORS,
                      static=static)
 
 
@@ -184,7 +195,7 @@ def test_fit_grows_the_radius_toward_the_target(device: torch.device) -> None:
     """Initial radius 1 px against a target 8 px wide (radius 4): the mean radius rises
     past 3 px (toward 4), every radius stays in radius_range, and the image loss falls."""
     plan = MotorPlan.from_points(STROKE, device=device).with_radius(1.0)
-    settings = OptimiserSettings(steps=80)
+    settings = settings_of(80)
     fit = optimise([plan], _objective(_target(device)), settings)
     r = fit.plans[0].points[:, 2]
     lo, hi = settings.radius_range
@@ -196,7 +207,7 @@ def test_fit_grows_the_radius_toward_the_target(device: torch.device) -> None:
 
 def test_radius_clamp_holds(device: torch.device) -> None:
     plan = MotorPlan.from_points(STROKE, device=device).with_radius(1.0)
-    settings = OptimiserSettings(steps=30, lr_radius=0.3, radius_range=(0.75, 2.0))
+    settings = settings_of(30, lr_radius=0.3, radius_range=(0.75, 2.0))
     r = optimise([plan], _objective(_target(device)), settings).plans[0].points[:, 2]
     assert float(r.min()) >= 0.75 and float(r.max()) == 2.0  # pushed up to the clamp
 
@@ -204,7 +215,7 @@ def test_radius_clamp_holds(device: torch.device) -> None:
 def test_radius_settings_leave_2d_fits_alone() -> None:
     """A 2-D plan keeps one points leaf: the radius settings change nothing, bit for bit."""
     plan = MotorPlan.from_points(STROKE)
-    base = OptimiserSettings(steps=10)
+    base = settings_of(10)
     other = dataclasses.replace(base, lr_radius=5.0, radius_range=(3.0, 3.5))
     fits = [optimise([plan], _objective(_target(torch.device("cpu"), 3.0)), s).plans[0]
             for s in (base, other)]
@@ -317,7 +328,7 @@ def test_recording_of_a_3d_fit(tmp_path: Path) -> None:
     recorder.on_start(RunContext(None, tmp_path, 6, CANVAS, target,
                                  [torch.tensor(STROKE).numpy()]))
     plan = MotorPlan.from_points(STROKE).with_radius(1.0)
-    optimise([plan], _objective(target), OptimiserSettings(steps=6), recorder)
+    optimise([plan], _objective(target), settings_of(6), recorder)
     recorder.on_end({})
     paths = entity_paths(tmp_path / "recording.rrd")
     assert {"/strokes/0/trajectory", "/strokes/0/targets", "/speed/0"} <= paths

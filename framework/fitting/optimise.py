@@ -28,6 +28,7 @@ import torch
 from inkmotion.errors import InkmotionError
 from inkmotion.events import StepState, scalars, wants
 from inkmotion.fitting.objective import Evaluation, Objective
+from inkmotion.rng import restore_rng, rng_states
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_RANGE, DELTA_T_RANGE
 from inkmotion.sigma_lognormal.plan import MotorPlan
@@ -250,6 +251,8 @@ def optimise(
     on_step = getattr(observers, "on_step", None)
     states = _StepStates(observers, plans, settings.steps)
 
+    resumed = resume is not None and "initial_terms" in resume
+    rng = rng_states() if resumed else None  # restored after the first evaluation below
     with torch.no_grad():
         first = objective(batch)
     initial_terms = scalars(_terms(first))
@@ -258,6 +261,9 @@ def optimise(
     initial_t_end = first.t_end.tolist()
     if resume is not None and "initial_terms" in resume:  # the terms before step 1
         initial_terms, initial_t_end = resume["initial_terms"], resume["initial_t_end"]
+        # the resumed steps draw the random numbers the checkpoint's RNG states give
+        # (an objective with random augmentations, CLIP's, drew some just now)
+        restore_rng(rng)
     if resume is not None and resume.get("objective"):
         objective.load_state(resume["objective"])
     finite = torch.ones((), dtype=torch.bool, device=fit.src.points.device)  # all steps so far
