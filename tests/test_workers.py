@@ -18,6 +18,7 @@ DATA = Path(__file__).parent / "data"
 TINY = ["--steps", "4", "--size", "64"]
 ARTIFACTS = {"plan.json", "input.json", "drawing.svg", "drawing.png", "overlay.png",
              "speed.png", "trajectory.csv", "job.json", "report.json", "recording.rrd"}
+TAG_ARTIFACTS = ARTIFACTS - {"input.json"} | {"init.json", "init.png"}
 
 
 def submit(*args: str) -> list[str]:
@@ -32,10 +33,11 @@ def wait_succeeded(*ids: str, timeout: float = 120) -> None:
     assert res.returncode == 0, res.stderr
 
 
-def assert_one_result_set(record: store.JobRecord, data_dir: Path) -> Path:
+def assert_one_result_set(record: store.JobRecord, data_dir: Path,
+                          expected: set[str] = ARTIFACTS) -> Path:
     artifacts = data_dir / "jobs" / record.id / "artifacts"
     assert record.artifact_dir == str(artifacts)
-    assert ARTIFACTS <= {p.name for p in artifacts.iterdir()}
+    assert expected <= {p.name for p in artifacts.iterdir()}
     siblings = sorted(p.name for p in artifacts.parent.iterdir())
     assert siblings == ["artifacts", "job.log"] or siblings == ["artifacts", "input", "job.log"]
     return artifacts
@@ -239,6 +241,52 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
         assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
     finally:
         pool.stop_all()
+
+
+def test_a_tag_whose_worker_is_killed_after_step_60_resumes_from_its_checkpoint(
+        worker_pool, service_env, tmp_path):
+    """A 'tag' job (random CLIP weights, 120 steps) optimises through the same core as a
+    fit, so it checkpoints like one: its worker is killed with SIGKILL after step 60,
+    another worker's reaper queues it again, and it resumes from the dead attempt's
+    checkpoint at step 50 and finishes with one result set and the plan of an
+    uninterrupted run, bit for bit (the same thread count, on the CPU)."""
+    from test_generation import TINY as TINY_CLIP
+
+    from inkmotion.recording import read_steps
+    from inkmotion.workers.local import WorkerPool
+
+    # a 2048-px canvas makes a step ~0.15 s here, so the kill lands between 60 and 120
+    args = ["CREAM", "--clip-model", TINY_CLIP, "--clip-weights", "random", "--steps", "120",
+            "--size", "2048", "--targets", "300", "--device", "cpu"]
+    worker_pool.stop_all()  # the session's workers' time limit is shorter than this job
+    pool = WorkerPool({**service_env, **DEFAULT_LIMITS}, tmp_path / "logs")
+    try:
+        pool.ensure(("t1", "t2"))
+        res = inkmotion_cli("submit", "tag", *args, "--json")
+        assert res.returncode == 0, res.stderr
+        job_id = json.loads(res.stdout)[0]["id"]
+        first = wait_for(lambda: _running(job_id, min_step=60), 120, interval=0.1)
+        pool.kill(first.worker_host.split("@")[0])
+        at_kill = store.get_job(job_id).step
+        wait_succeeded(job_id, timeout=180)
+        r = store.get_job(job_id)
+        assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 120
+        assert r.worker_host != first.worker_host and 60 <= at_kill < 120
+        artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]),
+                                          TAG_ARTIFACTS)
+        report = json.loads((artifacts / "report.json").read_text())
+        assert report["steps"] == 120 and report["resumed_from_step"] == 50
+        assert report["clip_weights"] == "random"
+        assert read_steps(artifacts / "recording.rrd") == list(range(51, 121))
+        assert not (artifacts.parent / "checkpoint.pt").exists()
+        print(f"tag killed at step {at_kill} on {first.worker_host}; finished on "
+              f"{r.worker_host}, resumed from step {report['resumed_from_step']}")
+    finally:
+        pool.stop_all()
+    alone = inkmotion_cli("run", "tag", *args, "--no-record", "--out", str(tmp_path / "alone"),
+                          env={"INKMOTION_THREADS": str(report["threads"])}, timeout=300)
+    assert alone.returncode == 0, alone.stderr
+    assert (artifacts / "plan.json").read_bytes() == (tmp_path / "alone" / "plan.json").read_bytes()
 
 
 def test_a_batch_of_fits_on_one_worker_survives_a_kill_9(worker_pool, service_env, tmp_path):
