@@ -26,7 +26,7 @@ too, later), those under ``if TYPE_CHECKING:`` not (they never run). Outside the
 and loads its names on first use) and ``inkmotion/__main__.py`` (``python -m inkmotion``,
 the CLI's door). ``import inkmotion`` (for ``__version__``) is allowed everywhere, and
 ``from inkmotion import NAME`` counts as an import of the module the facade loads NAME
-from; ``inkmotion.NAME`` used as an attribute is not seen.
+from, and so does ``inkmotion.NAME`` used as an attribute after ``import inkmotion``.
 
 A module whose package has no layer fails the test until it is given one here; a second
 test keeps the engine packages free of import cycles. ``python tests/test_layers.py``
@@ -177,7 +177,22 @@ def imports() -> list[Import]:
                         targets.append(base)
             found += [Import(name, rel, node.lineno, t) for t in dict.fromkeys(targets)
                       if t.split(".")[0] == "inkmotion" and t not in OUTSIDE]
+        found += [Import(name, rel, line, target) for line, target in
+                  _facade_uses(ast.parse(path.read_text(), filename=rel), facade)]
     return found
+
+
+def _facade_uses(tree: ast.AST, facade: dict[str, str]) -> list[tuple[int, str]]:
+    """``inkmotion.NAME`` in a module that imports ``inkmotion``: (line, the module the
+    facade loads NAME from), so ``import inkmotion; inkmotion.plugin(...)`` counts as an
+    import of the plugin manager (except under TYPE_CHECKING, as for imports)."""
+    if not any(isinstance(n, ast.Import) and any(a.name == "inkmotion" and a.asname is None
+                                                  for a in n.names)
+               for n in _runtime_imports(tree)):
+        return []
+    return [(node.lineno, facade[node.attr]) for node in ast.walk(tree)
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+            and node.value.id == "inkmotion" and node.attr in facade]
 
 
 def package_of(module: str) -> str:
@@ -310,6 +325,9 @@ def test_the_checker_sees_what_it_should() -> None:
     names = [a.name for n in _runtime_imports(ast.parse(code)) for a in n.names]
     assert names == ["TYPE_CHECKING", "b", "c"]
     assert facade_names()["plugin"] == "inkmotion.plugin_host.manager"
+    uses = _facade_uses(ast.parse("import inkmotion\nr = inkmotion.plugin('renderer', 'x')\n"),
+                        facade_names())
+    assert uses == [(2, "inkmotion.plugin_host.manager")]
     assert allowed("inkmotion.fitting.objective", PROTOCOLS)
     assert not allowed("inkmotion.fitting.objective", "inkmotion.plugin_host.manager")
     assert not allowed("inkmotion.workers.tasks", "inkmotion.cli.main")
