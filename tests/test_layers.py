@@ -93,8 +93,8 @@ LAYER_OF = {package: layer for layer, (packages, _, _) in LAYERS.items()
 class Import:
     """One runtime import of an inkmotion module: where it is and what it names."""
 
-    source: str  # importing module, e.g. "inkmotion.geometry.read"
-    path: str  # its file, relative to the repository, e.g. "framework/geometry/read.py"
+    source: str  # importing module, e.g. "inkmotion.kinds.read"
+    path: str  # its file, relative to the repository, e.g. "framework/kinds/read.py"
     line: int
     target: str  # imported module, e.g. "inkmotion.plugin_host.manager"
 

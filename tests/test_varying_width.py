@@ -177,7 +177,7 @@ STROKE = [[20.0, 30.0], [60.0, 40.0], [95.0, 70.0], [100.0, 105.0]]
 
 
 def _objective(target: torch.Tensor, static: bool | None = None) -> Objective:
-    """Objective with the 'raster' renderer and the 'mse' loss, as plugins/fit.py wires it."""
+    """Objective with the 'raster' renderer and the 'mse' loss, as the fit kind wires it."""
     loss = inkmotion.plugin("image-loss", "mse").prepare(Reference(image=target))
     return Objective(inkmotion.plugin("renderer", "raster"), {"mse": loss}, CANVAS, AUTHORS,
                      static=static)

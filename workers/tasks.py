@@ -8,9 +8,9 @@ transient errors (database or broker connection) are retried with exponential ba
 cancelled job is not run. The attempt holds the job's lease and keeps it alive by
 heartbeats (:mod:`inkmotion.workers.leases`): when its worker dies, any worker's reaper
 queues the job again within a minute. A redelivered job resumes from the checkpoint the
-dead attempt left in ``<data>/jobs/<id>/checkpoint.pt`` (job kinds that checkpoint: fit);
-the killed attempt left only a ``artifacts.partial-*`` folder, which is removed, so the
-job ends with exactly one result set.
+dead attempt left in ``<data>/jobs/<id>/checkpoint.pt`` (the kinds that optimise a plan
+checkpoint: fit, tag, abstract); the killed attempt left only a ``artifacts.partial-*``
+folder, which is removed, so the job ends with exactly one result set.
 """
 
 from __future__ import annotations
