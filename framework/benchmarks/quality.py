@@ -184,13 +184,12 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     """IoU of the rendered fit against the rendered target, and the share of Δt_i (i ≥ 2)
     at a clamp bound, from a fit's input.json and plan.json (see the module docstring)."""
     import numpy as np
-    import torch
 
     import inkmotion
     from inkmotion.evaluation.fit_motion import delta_t_at_clamp
     from inkmotion.geometry.traces import Traces
     from inkmotion.json_files import read_json
-    from inkmotion.rendering.drawing import render_polylines
+    from inkmotion.rendering.drawing import render_plans, render_polylines
     from inkmotion.sigma_lognormal import Drawing
 
     source = read_json(item_dir / "input.json", InputError, "input file")
@@ -200,12 +199,7 @@ def quality_figures(item_dir: Path) -> dict[str, float]:
     stroke = drawing.plans[0].width
     traces = Traces([np.asarray(s, dtype=np.float64) for s in source["traces"]])
     target = render_polylines(render, traces.strokes, stroke, (width, height))  # (H, W)
-    with torch.no_grad():
-        fitted = torch.zeros_like(target)
-        for plan in drawing.plans:
-            segments = inkmotion.bezier_segments(plan).detach()
-            image = render(segments, torch.full((len(segments),), plan.width), height, width)
-            fitted = torch.maximum(fitted, image)
+    fitted = render_plans(render, drawing.plans, (width, height))
     a, b = fitted > INK_THRESHOLD, target > INK_THRESHOLD
     union = int((a | b).sum())
     iou = float((a & b).sum()) / union if union else float("nan")

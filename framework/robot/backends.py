@@ -34,16 +34,10 @@ def render_plan_png(path: Path, plan_file_drawing: Any, canvas: tuple[float, flo
                     renderer: RenderFunction) -> None:
     """The plan drawn by ``renderer`` (the job's 'raster' renderer plugin, handed down by
     the backend's plugin), ink black on white, at its canvas size."""
-    import torch
-
-    from inkmotion.geometry.bezier import bezier_segments
     from inkmotion.outputs import write_png
+    from inkmotion.rendering.drawing import render_plans
 
-    with torch.no_grad():
-        segments = [bezier_segments(p) for p in plan_file_drawing.plans]
-        widths = torch.cat([torch.full((len(s),), p.width, dtype=s.dtype)
-                            for s, p in zip(segments, plan_file_drawing.plans, strict=True)])
-        image = renderer(torch.cat(segments), widths, int(canvas[1]), int(canvas[0]))
+    image = render_plans(renderer, plan_file_drawing.plans, (int(canvas[0]), int(canvas[1])))
     write_png(path, image)
 
 
