@@ -20,6 +20,7 @@ from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
+    from inkmotion.plugin_host.protocols import JobKind
 
 
 class AbstractKind:
@@ -48,5 +49,5 @@ class AbstractKind:
 
 
 @hookimpl
-def inkmotion_job_kinds() -> list:
+def inkmotion_job_kinds() -> list[JobKind]:
     return [AbstractKind()]

@@ -19,7 +19,7 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
-    from inkmotion.plugin_host.protocols import Reference
+    from inkmotion.plugin_host.protocols import Reference, Saliency
 
 
 @dataclass
@@ -66,5 +66,5 @@ class ClipSaliency:
 
 
 @hookimpl
-def inkmotion_saliency() -> list:
+def inkmotion_saliency() -> list[Saliency]:
     return [ClipSaliency()]

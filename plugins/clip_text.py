@@ -21,6 +21,8 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
+    from inkmotion.plugin_host.protocols import ImageLoss
+
 
 
 @dataclass
@@ -60,5 +62,5 @@ class ClipText:
 
 
 @hookimpl
-def inkmotion_image_losses() -> list:
+def inkmotion_image_losses() -> list[ImageLoss]:
     return [ClipText()]

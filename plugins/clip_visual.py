@@ -22,6 +22,8 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
+    from inkmotion.plugin_host.protocols import ImageLoss
+
 DEFAULT_LAYERS = "2:0.5,3:0.5,6:1.0"
 
 
@@ -64,5 +66,5 @@ class ClipVisual:
 
 
 @hookimpl
-def inkmotion_image_losses() -> list:
+def inkmotion_image_losses() -> list[ImageLoss]:
     return [ClipVisual()]

@@ -17,7 +17,7 @@ from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
-    from inkmotion.plugin_host.protocols import JobInputs
+    from inkmotion.plugin_host.protocols import Initialiser, JobInputs
     from inkmotion.sigma_lognormal.plan import MotorPlan
 
 
@@ -69,5 +69,5 @@ class DceInitialiser:
 
 
 @hookimpl
-def inkmotion_initialisers() -> list:
+def inkmotion_initialisers() -> list[Initialiser]:
     return [DceInitialiser()]

@@ -25,6 +25,7 @@ from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
+    from inkmotion.plugin_host.protocols import JobKind
 
 
 @dataclass
@@ -69,5 +70,5 @@ class EvaluateKind:
 
 
 @hookimpl
-def inkmotion_job_kinds() -> list:
+def inkmotion_job_kinds() -> list[JobKind]:
     return [EvaluateKind()]

@@ -14,6 +14,7 @@ from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
+    from inkmotion.plugin_host.protocols import JobKind
 
 
 class FitKind:
@@ -49,5 +50,5 @@ class FitKind:
 
 
 @hookimpl
-def inkmotion_job_kinds() -> list:
+def inkmotion_job_kinds() -> list[JobKind]:
     return [FitKind()]

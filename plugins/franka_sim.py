@@ -7,10 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import RobotBackend
 
 
 @dataclass
@@ -45,5 +48,5 @@ class FrankaSim:
 
 
 @hookimpl
-def inkmotion_robot_backends() -> list:
+def inkmotion_robot_backends() -> list[RobotBackend]:
     return [FrankaSim()]

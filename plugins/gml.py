@@ -8,11 +8,15 @@ and time stamps are :mod:`inkmotion.inputs.gml`.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.gml import read_gml
 from inkmotion.inputs.sources import is_scheme
 from inkmotion.plugin_host import hookimpl
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import Reader
 
 #: suffixes read as GML whatever the content; ``.xml`` is read when it holds ``<gml``
 SUFFIXES = {".gml", ".json", ".jsonp", ".js"}
@@ -47,6 +51,6 @@ class GmlReader:
 
 
 @hookimpl
-def inkmotion_readers() -> list:
+def inkmotion_readers() -> list[Reader]:
     """Register the GML reader."""
     return [GmlReader()]

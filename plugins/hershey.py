@@ -6,9 +6,14 @@ uses); the rendering and the joining of cursive runs are :mod:`inkmotion.inputs.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.hershey import FONT, LETTER_SPACING, SCHEME, render_text
 from inkmotion.plugin_host import hookimpl
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import Reader
 
 
 class HersheyTextReader:
@@ -34,6 +39,6 @@ class HersheyTextReader:
 
 
 @hookimpl
-def inkmotion_readers() -> list:
+def inkmotion_readers() -> list[Reader]:
     """Register the Hershey text reader."""
     return [HersheyTextReader()]

@@ -16,6 +16,8 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
+    from inkmotion.plugin_host.protocols import ImageLoss
+
 
 class MultiscaleMse:
     """The multi-scale MSE against a fixed target, its pyramid computed once."""
@@ -46,5 +48,5 @@ class MultiscaleMse:
 
 
 @hookimpl
-def inkmotion_image_losses() -> list:
+def inkmotion_image_losses() -> list[ImageLoss]:
     return [MultiscaleMse()]

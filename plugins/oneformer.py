@@ -18,7 +18,7 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
-    from inkmotion.plugin_host.protocols import Reference
+    from inkmotion.plugin_host.protocols import Reference, Saliency
 
 DEFAULT_MODEL_ID = "shi-labs/oneformer_coco_swin_large"
 
@@ -51,5 +51,5 @@ class OneformerSaliency:
 
 
 @hookimpl
-def inkmotion_saliency() -> list:
+def inkmotion_saliency() -> list[Saliency]:
     return [OneformerSaliency()]

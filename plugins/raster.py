@@ -17,6 +17,7 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
+    from inkmotion.plugin_host.protocols import Renderer
     from inkmotion.rendering.raster import RasterSession
 
 
@@ -51,6 +52,6 @@ class RasterRenderer:
 
 
 @hookimpl
-def inkmotion_renderers() -> list:
+def inkmotion_renderers() -> list[Renderer]:
     """The built-in renderers of this module."""
     return [RasterRenderer()]

@@ -27,6 +27,7 @@ from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
+    from inkmotion.plugin_host.protocols import JobKind
 
 
 @dataclass
@@ -74,5 +75,5 @@ class SimulateKind:
 
 
 @hookimpl
-def inkmotion_job_kinds() -> list:
+def inkmotion_job_kinds() -> list[JobKind]:
     return [SimulateKind()]

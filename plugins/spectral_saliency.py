@@ -18,7 +18,7 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
-    from inkmotion.plugin_host.protocols import Reference
+    from inkmotion.plugin_host.protocols import Reference, Saliency
 
 
 @dataclass
@@ -50,5 +50,5 @@ class SpectralSaliency:
 
 
 @hookimpl
-def inkmotion_saliency() -> list:
+def inkmotion_saliency() -> list[Saliency]:
     return [SpectralSaliency()]

@@ -17,6 +17,8 @@ from inkmotion.plugin_host import hookimpl
 if TYPE_CHECKING:
     import torch
 
+    from inkmotion.plugin_host.protocols import Renderer
+
 
 class SprayRenderer:
     """The 'spray' renderer plugin object."""
@@ -47,6 +49,6 @@ class SprayRenderer:
 
 
 @hookimpl
-def inkmotion_renderers() -> list:
+def inkmotion_renderers() -> list[Renderer]:
     """The built-in renderers of this module."""
     return [SprayRenderer()]

@@ -7,10 +7,14 @@ The declaration only (files ending in ``.svg``); parsing and curve flattening ar
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.svg import read_svg
 from inkmotion.plugin_host import hookimpl
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import Reader
 
 
 class SvgReader:
@@ -30,6 +34,6 @@ class SvgReader:
 
 
 @hookimpl
-def inkmotion_readers() -> list:
+def inkmotion_readers() -> list[Reader]:
     """Register the SVG reader."""
     return [SvgReader()]

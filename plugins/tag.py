@@ -20,6 +20,7 @@ from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
+    from inkmotion.plugin_host.protocols import JobKind
 
 class TagKind:
     """The 'tag' job kind (see the module docstring)."""
@@ -47,5 +48,5 @@ class TagKind:
 
 
 @hookimpl
-def inkmotion_job_kinds() -> list:
+def inkmotion_job_kinds() -> list[JobKind]:
     return [TagKind()]

@@ -32,7 +32,7 @@ from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
-    from inkmotion.plugin_host.protocols import JobInputs
+    from inkmotion.plugin_host.protocols import Initialiser, JobInputs
     from inkmotion.sigma_lognormal.plan import MotorPlan
 
 
@@ -97,5 +97,5 @@ class VoronoiTspInitialiser:
 
 
 @hookimpl
-def inkmotion_initialisers() -> list:
+def inkmotion_initialisers() -> list[Initialiser]:
     return [VoronoiTspInitialiser()]

@@ -10,7 +10,20 @@ The objects returned follow the protocols in :mod:`inkmotion.plugin_host.protoco
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import pluggy
+
+if TYPE_CHECKING:
+    from inkmotion.plugin_host.protocols import (
+        ImageLoss,
+        Initialiser,
+        JobKind,
+        Reader,
+        Renderer,
+        RobotBackend,
+        Saliency,
+    )
 
 PROJECT = "inkmotion"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -18,37 +31,37 @@ hookimpl = pluggy.HookimplMarker(PROJECT)
 
 
 @hookspec
-def inkmotion_job_kinds() -> list:
+def inkmotion_job_kinds() -> list[JobKind]:
     """Job kinds: parameters, queue, steps and ``run(job) -> report`` (fit, tag, ...)."""
 
 
 @hookspec
-def inkmotion_readers() -> list:
+def inkmotion_readers() -> list[Reader]:
     """Readers: parse an input (file path or ``scheme:value`` string) into traces."""
 
 
 @hookspec
-def inkmotion_initialisers() -> list:
+def inkmotion_initialisers() -> list[Initialiser]:
     """Initialisers: traces (or an image / caption) -> initial motor plans."""
 
 
 @hookspec
-def inkmotion_image_losses() -> list:
+def inkmotion_image_losses() -> list[ImageLoss]:
     """Image losses: (rendered image, target) -> scalar tensor."""
 
 
 @hookspec
-def inkmotion_renderers() -> list:
+def inkmotion_renderers() -> list[Renderer]:
     """Renderers: Bézier segments + widths -> differentiable coverage image."""
 
 
 @hookspec
-def inkmotion_saliency() -> list:
+def inkmotion_saliency() -> list[Saliency]:
     """Saliency estimators: image -> [0, 1] map."""
 
 
 @hookspec
-def inkmotion_robot_backends() -> list:
+def inkmotion_robot_backends() -> list[RobotBackend]:
     """Robot backends: timed Cartesian plan -> execution or export."""
 
 
