@@ -158,7 +158,11 @@ def test_config_then_options_override(tmp_path: Path) -> None:
     spec = spec_from_options("fit", [], {"steps": 7}, config=V1 / "job.json")
     assert spec.inputs == {"drawing": "text:hi"} and spec.params["steps"] == 7
     assert spec.params["size"] == 200
-    assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0, "bend": False}
+    assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0}
+    assert spec.version == 2  # the version-1 file keeps the defaults of its day
+    full = resolve(spec, check_inputs=False).full_spec()
+    assert full.version == 4 and full.params["steps"] == 7
+    assert full.params["initialiser"]["bend"] is False and full.params["refine"] == 0
 
 
 # -- registration: protocols, duplicates, all or nothing ---------------------------------
