@@ -243,6 +243,7 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
         pool.stop_all()
 
 
+@pytest.mark.slow
 def test_a_tag_whose_worker_is_killed_after_step_60_resumes_from_its_checkpoint(
         worker_pool, service_env, tmp_path):
     """A 'tag' job (random CLIP weights, 120 steps) optimises through the same core as a
