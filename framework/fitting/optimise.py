@@ -28,7 +28,7 @@ import torch
 from inkmotion.errors import InkmotionError
 from inkmotion.events import StepState, scalars, wants
 from inkmotion.fitting.objective import Evaluation, Objective
-from inkmotion.rng import restore_rng, rng_states
+from inkmotion.rng import restore_rng
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_RANGE, DELTA_T_RANGE
 from inkmotion.sigma_lognormal.plan import MotorPlan
@@ -251,8 +251,6 @@ def optimise(
     on_step = getattr(observers, "on_step", None)
     states = _StepStates(observers, plans, settings.steps)
 
-    resumed = resume is not None and "initial_terms" in resume
-    rng = rng_states() if resumed else None  # restored after the first evaluation below
     with torch.no_grad():
         first = objective(batch)
     initial_terms = scalars(_terms(first))
@@ -261,9 +259,7 @@ def optimise(
     initial_t_end = first.t_end.tolist()
     if resume is not None and "initial_terms" in resume:  # the terms before step 1
         initial_terms, initial_t_end = resume["initial_terms"], resume["initial_t_end"]
-        # the resumed steps draw the random numbers the checkpoint's RNG states give
-        # (an objective with random augmentations, CLIP's, drew some just now)
-        restore_rng(rng)
+    _restore_rng_of(resume)
     if resume is not None and resume.get("objective"):
         objective.load_state(resume["objective"])
     finite = torch.ones((), dtype=torch.bool, device=fit.src.points.device)  # all steps so far
@@ -303,6 +299,14 @@ def optimise(
         steps=settings.steps,
         state=fit.state(),
     )
+
+
+def _restore_rng_of(resume: dict | None) -> None:
+    """Continue the RNG streams of a checkpoint (``resume["rng"]``), after the first
+    evaluation of the resumed plans: an objective with random augmentations (CLIP's)
+    draws numbers there, which the uninterrupted run drew before step 1."""
+    if resume is not None and resume.get("rng") is not None:
+        restore_rng(resume["rng"])
 
 
 @dataclass
@@ -381,6 +385,7 @@ def optimise_together(requests: list[Request], objective: Any) -> list[FitResult
     for b, r in enumerate(requests):
         if r.resume is not None and "initial_terms" in r.resume:
             initial[b], initial_t_end[b] = r.resume["initial_terms"], r.resume["initial_t_end"]
+        _restore_rng_of(r.resume)
     if all(r.resume is not None and r.resume.get("objective") for r in requests):
         objective.load_item_states([r.resume["objective"] for r in requests])  # type: ignore
     finite = torch.ones(len(requests), dtype=torch.bool, device=union_t.device)

@@ -323,8 +323,6 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
     saved = checkpoints.load() if checkpoints is not None else None
     start_stage, resume, initial = 0, None, None
     if saved is not None:
-        from inkmotion.rng import restore_rng
-
         dtype, device = plans[0].points.dtype, plans[0].points.device
         start_stage, done, record = saved["stage"], saved["done"], list(saved["record"])
         inserted, merged, added = saved["inserted"], saved["merged"], saved["added"]
@@ -334,10 +332,9 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
         resume = {"leaves": saved["leaves"], "adam": saved["adam"],
                   "step": saved["step_in_stage"], "initial_terms": saved["initial_terms"],
                   "initial_t_end": saved["initial_t_end"],
-                  "objective": saved.get("objective")}
+                  "objective": saved.get("objective"), "rng": saved["rng"]}
         if "edits" in saved:
             edits = _Edits(**saved["edits"])
-        restore_rng(saved["rng"])
     resumed_from = done + (resume["step"] if resume is not None else 0)
     for k, n in enumerate(steps):
         if k < start_stage:

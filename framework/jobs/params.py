@@ -65,11 +65,10 @@ def redefault(base: type, name: str, default: Any, help: str | None = None) -> A
     return field(default=default, metadata=meta)
 
 
-def default_for(info_or_field: Any, version: int | None) -> tuple[bool, Any]:
-    """(whether spec ``version`` had another default for this field, that default), from
-    the field's ``earlier`` history (:func:`param`); None: the current version."""
-    meta = getattr(info_or_field, "metadata", None)
-    earlier = (meta or {}).get("earlier") or {}
+def default_for(f: dataclasses.Field, version: int | None) -> tuple[bool, Any]:
+    """(whether spec ``version`` had another default for the field ``f``, that default),
+    from its ``earlier`` history (:func:`param`); None: the current version."""
+    earlier = f.metadata.get("earlier") or {}
     listed = sorted(v for v in earlier if version is not None and v >= version)
     if not listed:
         return False, None

@@ -62,7 +62,8 @@ def run_evaluate(job: Job) -> dict[str, Any]:
                             "minimum-jerk-sigma-times": "the ΣΛ trajectory's own passage "
                             "times through the same via points"}}
     if p.recording:
-        doc["human"] = human_figures(p.recording, drawing, job.folder)
+        doc["human"] = human_agreement_from_files(p.recording, drawing,
+                                                  job.folder / "human_speeds.png")
     (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
     write_csv(job.folder / "evaluation.csv", table, ratios,
               per_path if len(per_path) > 1 else None)
@@ -71,11 +72,6 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     print_table(table, ratios, f"evaluation, {len(indices)} path(s)")
     metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
     return {**doc, "metrics": metrics}
-
-
-def human_figures(recording: str, drawing: Any, folder: Path) -> dict[str, Any]:
-    """Agreement of the fit's speed peaks with the recorded motion's (when it has times)."""
-    return human_agreement_from_files(recording, drawing, folder / "human_speeds.png")
 
 
 def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,

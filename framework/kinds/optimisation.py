@@ -113,11 +113,9 @@ def optimise_plans(problem: StagedProblem) -> StagedFit:
     """Optimise one job's plans (:func:`inkmotion.fitting.stages.fit_in_stages`): the
     job's checkpoints are written as it goes, and a job that finds one of its own resumes
     from it (``StagedFit.resumed_from_step``)."""
-    from inkmotion.fitting.stages import fit_in_stages
+    from inkmotion.fitting.stages import fit_together_in_stages
 
-    p = problem
-    return fit_in_stages(p.plans, p.objective, p.settings, p.strokes, p.refine, p.observers,
-                         p.checkpoints)
+    return fit_together_in_stages([problem])[0]
 
 
 def write_plan_artifacts(job: Job, plans: list[MotorPlan], rendered: Any,

@@ -64,9 +64,10 @@ def run_simulate(job: Job) -> dict[str, Any]:
     total = job.total_steps
 
     def stage(step: int, name: str, seconds: float = 0.0) -> None:
+        """Stage ``step`` (``name``: timing, joints or a backend) is done."""
         job.observers.on_step(StepState(step, total, {"stage_s": seconds}, 0.0))
 
-    program = plan_program(drawing, setup, on_stage=lambda k, name: stage(k, name))
+    program = plan_program(drawing, setup, on_stage=stage)
     write_program(job.folder, program)
     cart, joints = program.cartesian, program.joints
     report: dict[str, Any] = {
