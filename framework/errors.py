@@ -21,3 +21,7 @@ class SpecError(InkmotionError):
 
 class ServiceError(InkmotionError):
     """A service (broker, database) cannot be reached."""
+
+
+class RobotError(InkmotionError):
+    """A robot refused a command, faulted, or was stopped before it finished."""

@@ -69,24 +69,7 @@ def run_simulate(job: Job) -> dict[str, Any]:
 
     program = plan_program(drawing, setup, on_stage=stage)
     write_program(job.folder, program)
-    cart, joints = program.cartesian, program.joints
-    report: dict[str, Any] = {
-        "duration_s": float(cart.t[-1]),
-        "drawing_s": cart.info.get("drawing_s"),
-        "time_scale": cart.time_scale,
-        "timing": cart.info,
-        "joint_trajectory": {"max_position_error_mm": 1e3 * joints.max_position_error,
-                             "max_orientation_error_deg":
-                                 float(np.degrees(joints.max_orientation_error)),
-                             **joints.info},
-        "planning": program.info,
-        "setup": {"v_max": setup.v_max, "a_max": setup.a_max, "pen_length": setup.pen_length,
-                  "control_rate": setup.control_rate,
-                  "plane_residual_mm": 1e3 * float(setup.plane.residual),
-                  "m_per_px": program.mapping.scale},
-        "paths": len(drawing.plans),
-        "moves": sum(plan.m for plan in drawing.plans),
-    }
+    report = program_report(program)
     metrics = {"duration_s": report["duration_s"],
                "ik_max_position_error_mm": report["joint_trajectory"]["max_position_error_mm"]}
     for i, choice in enumerate(p.backends, start=3):
@@ -103,3 +86,27 @@ def run_simulate(job: Job) -> dict[str, Any]:
         stage(i, choice.name, time.perf_counter() - started)
     report["metrics"] = metrics
     return report
+
+
+def program_report(program: RobotProgram) -> dict[str, Any]:
+    """The report keys of a planned robot program (timing, joint trajectory, planning and
+    limits, setup, plan size), shared by every kind that drives an arm."""
+    cart, joints, setup, drawing = (program.cartesian, program.joints, program.setup,
+                                    program.drawing)
+    return {
+        "duration_s": float(cart.t[-1]),
+        "drawing_s": cart.info.get("drawing_s"),
+        "time_scale": cart.time_scale,
+        "timing": cart.info,
+        "joint_trajectory": {"max_position_error_mm": 1e3 * joints.max_position_error,
+                             "max_orientation_error_deg":
+                                 float(np.degrees(joints.max_orientation_error)),
+                             **joints.info},
+        "planning": program.info,
+        "setup": {"v_max": setup.v_max, "a_max": setup.a_max, "pen_length": setup.pen_length,
+                  "control_rate": setup.control_rate,
+                  "plane_residual_mm": 1e3 * float(setup.plane.residual),
+                  "m_per_px": program.mapping.scale},
+        "paths": len(drawing.plans),
+        "moves": sum(plan.m for plan in drawing.plans),
+    }

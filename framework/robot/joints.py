@@ -385,10 +385,15 @@ def solve_joint_trajectory(target: object, *, pen_length: float, home: np.ndarra
                            knot_rate: float = 100.0, position_tolerance: float = 5e-4,
                            orientation_tolerance: float = np.radians(2.0),
                            weights: TrackingWeights | None = None, max_iterations: int = 30,
-                           max_refinements: int = 4) -> JointTrajectory:
+                           max_refinements: int = 4,
+                           position_limits: tuple[np.ndarray, np.ndarray] | None = None
+                           ) -> JointTrajectory:
     """Joint positions at every control sample of ``target`` (a ``CartesianTrajectory``:
     ``t``, ``position`` (N, 3), ``normal``, ``rate``, optionally ``stroke``) that keep the
     pen tip on the path and the pen along −normal, ``joint_margin`` rad inside the limits.
+
+    ``position_limits``: the (lower, upper) joint ranges (7,) of the arm that will draw
+    (default: the Panda URDF's); the narrower of those and the model's are used.
 
     The robot starts at ``q_start`` (fixed; its pen pose must match the first sample) or,
     by default, at the configuration nearest ``home`` that reaches the first sample; the
@@ -405,11 +410,15 @@ def solve_joint_trajectory(target: object, *, pen_length: float, home: np.ndarra
     assert len(t) == len(position) >= 1 and np.shape(home) == (_DOF,)
     check_reachable(position, normal, pen_length, joint_margin=joint_margin, stroke=stroke)
     pen = pen_model(float(pen_length))
-    if np.any(pen.lower + joint_margin >= pen.upper - joint_margin):
+    lower, upper = pen.lower, pen.upper
+    if position_limits is not None:
+        lower = np.maximum(lower, np.asarray(position_limits[0], dtype=float))
+        upper = np.minimum(upper, np.asarray(position_limits[1], dtype=float))
+    if np.any(lower + joint_margin >= upper - joint_margin):
         raise InputError(f"joint_margin = {joint_margin} rad leaves no room between the "
                          "Panda's joint limits; use a smaller margin (0.05 rad is usual).")
     problem = _Problem(pen, normal / np.linalg.norm(normal), np.asarray(home, dtype=float),
-                       pen.lower + joint_margin, pen.upper - joint_margin,
+                       lower + joint_margin, upper - joint_margin,
                        weights or TrackingWeights())
     tolerances = (position_tolerance, orientation_tolerance)
     q0 = _start(problem, position[0], q_start, tolerances)
@@ -452,7 +461,7 @@ def solve_joint_trajectory(target: object, *, pen_length: float, home: np.ndarra
         "max_velocity_ratio": ratios["velocity"].tolist(),
         "max_acceleration_ratio": ratios["acceleration"].tolist(),
         "max_jerk_ratio": ratios["jerk"].tolist(),
-        "min_joint_margin": float(np.min(np.minimum(q_all - pen.lower, pen.upper - q_all))),
+        "min_joint_margin": float(np.min(np.minimum(q_all - lower, upper - q_all))),
         "mean_position_error": float(np.mean(pos_err)),
         "method": "Gauss–Newton, banded Cholesky, log-barrier joint limits, C² spline",
     }

@@ -41,6 +41,7 @@ from scipy.interpolate import CubicSpline
 
 from inkmotion.robot import limits
 from inkmotion.robot.scene import Scene
+from inkmotion.robot.tracking import error_stats, trim
 
 #: joint stiffness of libfranka's joint impedance example (stiff shoulder, soft wrist)
 KP = np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0])  # N·m/rad
@@ -276,41 +277,6 @@ def _mesh_poses(scene: Scene, body_pos: np.ndarray,
 # ----------------------------------------------------------------------------- metrics
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """[start, stop) of the runs of True in a boolean array."""
-    padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(padded))
-    return list(zip(edges[::2], edges[1::2], strict=True))
-
-
-def _trim(mask: np.ndarray, margin: int) -> np.ndarray:
-    """``mask`` with ``margin`` samples removed at both ends of each of its runs."""
-    out = np.zeros_like(mask)
-    for start, stop in _runs(mask):
-        if stop - start > 2 * margin:
-            out[start + margin:stop - margin] = True
-    return out
-
-
-def _error_stats(err: np.ndarray, mask: np.ndarray, normal: np.ndarray,
-                 prefix: str) -> dict[str, float]:
-    """RMS / max (mm) of the in-plane and normal parts of errors (N, 3) m over ``mask``."""
-    if not mask.any():
-        return {}
-    e = err[mask]
-    e_n = e @ normal
-    e_t = np.linalg.norm(e - e_n[:, None] * normal, axis=1)
-    e_3 = np.linalg.norm(e, axis=1)
-    return {
-        f"{prefix}_plane_rms_mm": 1e3 * float(np.sqrt(np.mean(e_t**2))),
-        f"{prefix}_plane_max_mm": 1e3 * float(e_t.max()),
-        f"{prefix}_normal_mean_mm": 1e3 * float(e_n.mean()),
-        f"{prefix}_normal_max_abs_mm": 1e3 * float(np.abs(e_n).max()),
-        f"{prefix}_3d_rms_mm": 1e3 * float(np.sqrt(np.mean(e_3**2))),
-        f"{prefix}_3d_max_mm": 1e3 * float(e_3.max()),
-    }
-
-
 def execution_metrics(sim: SimResult, planned_tip: np.ndarray, pen_down: np.ndarray, *,
                       rate: float | None = None, normal: np.ndarray | None = None,
                       edge_s: float = 0.02) -> dict:
@@ -345,9 +311,9 @@ def execution_metrics(sim: SimResult, planned_tip: np.ndarray, pen_down: np.ndar
     everything = np.ones(len(pen_down), dtype=bool)
     metrics: dict = {}
     for prefix, err in (("tracking", executed - planned_tip), ("control", executed - commanded)):
-        metrics.update(_error_stats(err, pen_down, n, f"{prefix}_down"))
-        metrics.update(_error_stats(err, ~pen_down, n, f"{prefix}_up"))
-        metrics.update(_error_stats(err, everything, n, f"{prefix}_all"))
+        metrics.update(error_stats(err, pen_down, n, f"{prefix}_down"))
+        metrics.update(error_stats(err, ~pen_down, n, f"{prefix}_up"))
+        metrics.update(error_stats(err, everything, n, f"{prefix}_all"))
     joint_err = np.abs(sim.q - sim.q_des)
     metrics["joint_error_max_rad"] = joint_err.max(axis=0).tolist()
     metrics["joint_error_rms_rad"] = float(np.sqrt(np.mean(joint_err**2)))
@@ -372,7 +338,7 @@ def execution_metrics(sim: SimResult, planned_tip: np.ndarray, pen_down: np.ndar
 
     margin = int(round(edge_s * rate))
     touching = sim.contact[index]
-    inner_down, inner_up = _trim(pen_down, margin), _trim(~pen_down, margin)
+    inner_down, inner_up = trim(pen_down, margin), trim(~pen_down, margin)
     metrics["contact_coverage"] = float(touching[inner_down].mean()) if inner_down.any() else 0.0
     metrics["spurious_contact"] = float(touching[inner_up].mean()) if inner_up.any() else 0.0
     forces = sim.contact_force[index][pen_down & touching]

@@ -1,6 +1,6 @@
-"""A robot program from a drawing: the drawing timed on the setup's paper, then the joint
-trajectory that draws it (the engine behind the 'simulate' kind, and any other kind that
-drives the arm).
+"""A robot program from a drawing: the drawing timed on the setup's paper, the joint
+trajectory that draws it, then that trajectory retimed where it would exceed the arm's
+joint limits (the engine behind the 'simulate' and 'draw' kinds).
 
 Everything that can refuse the drawing (reachability of every sample) runs before the
 joint trajectory is solved in full, so an unreachable drawing costs a timing, not a solve.
@@ -15,18 +15,25 @@ from typing import TYPE_CHECKING
 from inkmotion.robot.types import RobotProgram
 
 if TYPE_CHECKING:
+    from inkmotion.robot.limits import ArmLimits
     from inkmotion.robot.setup import RobotSetup
     from inkmotion.sigma_lognormal import Drawing
 
 
 def plan_program(drawing: Drawing, setup: RobotSetup,
-                 on_stage: Callable[[int, str], None] | None = None) -> RobotProgram:
-    """Time the drawing on the setup and solve its joint trajectory (raises InputError with
-    one sentence for an unreachable drawing, before any joint trajectory is solved);
-    ``on_stage(1, "timing")`` and ``on_stage(2, "joints")`` report the two stages."""
+                 on_stage: Callable[[int, str], None] | None = None,
+                 arm: ArmLimits | None = None) -> RobotProgram:
+    """Time the drawing on the setup, solve its joint trajectory inside ``arm``'s position
+    ranges (default: the Panda's) and retime it so that every joint stays within the
+    setup's ``limit_fraction`` of the arm's velocity, acceleration and jerk limits
+    (:mod:`inkmotion.robot.retime`; raises InputError with one sentence for an unreachable
+    drawing, before any joint trajectory is solved); ``on_stage(1, "timing")`` and
+    ``on_stage(2, "joints")`` report the two stages."""
     from inkmotion.robot.calibration import PaperMapping
     from inkmotion.robot.joints import solve_joint_trajectory
     from inkmotion.robot.kinematics import check_reachable, pen_model, pen_poses
+    from inkmotion.robot.limits import PANDA
+    from inkmotion.robot.retime import fit_to_limits
     from inkmotion.robot.timing import time_drawing
 
     t0 = time.perf_counter()
@@ -39,11 +46,16 @@ def plan_program(drawing: Drawing, setup: RobotSetup,
     if on_stage is not None:
         on_stage(1, "timing")
     t1 = time.perf_counter()
+    arm = arm or PANDA
     joints = solve_joint_trajectory(cartesian, pen_length=setup.pen_length, home=setup.home,
-                                    joint_margin=setup.joint_margin, q_start=setup.home)
+                                    joint_margin=setup.joint_margin, q_start=setup.home,
+                                    position_limits=(arm.lower, arm.upper))
+    cartesian, joints, limits_info = fit_to_limits(
+        cartesian, joints, arm, fraction=setup.limit_fraction,
+        position_margin=0.5 * setup.joint_margin)
     joints_s = time.perf_counter() - t1
     if on_stage is not None:
         on_stage(2, "joints")
     info = {"timing_s": round(timing_s, 3), "joints_s": round(joints_s, 3),
-            "planning_s": round(timing_s + joints_s, 3)}
+            "planning_s": round(timing_s + joints_s, 3), "limits": limits_info}
     return RobotProgram(setup, mapping, drawing.canvas, cartesian, joints, info, drawing)
