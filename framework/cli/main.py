@@ -27,6 +27,7 @@ from inkmotion.cli import (
     gallery,
     jobs,
     render,
+    robot,
     run,
     submit,
     view,
@@ -111,7 +112,8 @@ def bench_cmd(
 def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
-    for group in (run, submit, evaluate, benchmark, render, jobs, worker, view, gallery, clip):
+    for group in (run, submit, evaluate, benchmark, render, jobs, worker, view, gallery, clip,
+                  robot):
         group.register(app)
 
 

@@ -116,10 +116,7 @@ def connected_arm(robot: Any, model: str = "auto") -> ArmLimits:
         urdf = ""
     names, lower, upper, velocity = _urdf_arm_joints(urdf)
     if model == "auto":
-        if not names:
-            raise RobotError("The robot does not report its model (no URDF from the FCI); "
-                             "name it with --model panda or --model fr3.")
-        model = "fr3" if names[0].startswith("fr3") else "panda"
+        model = _urdf_model(urdf, names)
     base = arm_limits(model)
     if not names:
         return base
@@ -127,6 +124,21 @@ def connected_arm(robot: Any, model: str = "auto") -> ArmLimits:
                      upper=np.minimum(base.upper, upper),
                      velocity=np.minimum(base.velocity, velocity),
                      acceleration=base.acceleration, jerk=base.jerk, torque=base.torque)
+
+
+def _urdf_model(urdf: str, joints: list[str]) -> str:
+    """"fr3" or "panda" from the URDF's robot name or its joints' prefix."""
+    try:
+        robot_name = ET.fromstring(urdf).get("name", "") if urdf.strip() else ""
+    except ET.ParseError:
+        robot_name = ""
+    for label in [robot_name.lower()] + [j.lower() for j in joints]:
+        if "fr3" in label:
+            return "fr3"
+        if "panda" in label:
+            return "panda"
+    raise RobotError("The robot does not say which Franka it is (no model in the URDF its FCI "
+                     "serves); name it with --model fr3 or --model panda.")
 
 
 def _urdf_arm_joints(urdf: str) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
@@ -282,10 +294,6 @@ class _Stream:
                          self.tau[:n].copy(), self.ref[:n].copy(), completed, reason, wall_s)
 
 
-class _Terminated(BaseException):
-    """SIGTERM arrived while the arm moved."""
-
-
 def _stop_smoothly(robot: Any, franky: Any) -> str | None:
     """End the torque loop with a TorqueStopMotion (the arm brought to rest where it is);
     the error text when even that fails (the robot then stops by its own reflex)."""
@@ -312,22 +320,33 @@ def stream(robot: Any, q_plan: np.ndarray, rate: float, *,
     motion.set_reference(franky.JointReference(q=q_plan[0], dq=np.zeros(7)))
     recorder = _Stream(motion, q_plan, rate, franky, robot.model if feedforward else None)
     motion.register_callback(recorder)
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        def terminate(signum: int, frame: Any) -> None:
-            raise _Terminated()
-        previous = signal.signal(signal.SIGTERM, terminate)
+    previous: dict[int, Any] = {}
+
+    asked: list[str] = []
+
+    def signalled(signum: int, frame: Any) -> None:
+        # noted, not raised: franky's join_motion checks for Python signals and would turn
+        # an exception into its own preemption of the motion
+        asked.append("interrupted (Ctrl-C)" if signum == signal.SIGINT
+                     else "stopped by SIGTERM")
     started = time.perf_counter()
     reason: str | None = None
     running = False
     try:
         robot.move(motion, asynchronous=True)
         running = True
+        if threading.current_thread() is threading.main_thread():
+            # a Ctrl-C or SIGTERM must stop the arm smoothly and say so
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                previous[signum] = signal.signal(signum, signalled)
         last = -1.0
         while True:
             if robot.join_motion(timeout=0.02):
                 running = False
                 reason = "the robot ended the motion by itself"
+                break
+            if asked:
+                reason = asked[0]
                 break
             if recorder.fault is not None:
                 reason = recorder.fault
@@ -340,8 +359,6 @@ def stream(robot: Any, q_plan: np.ndarray, rate: float, *,
                 last = now
     except KeyboardInterrupt:
         reason = "interrupted (Ctrl-C)"
-    except _Terminated:
-        reason = "stopped by SIGTERM"
     except franky.NetworkException as exc:
         running = False
         reason = f"the connection to the robot was lost ({exc})"
@@ -354,8 +371,8 @@ def stream(robot: Any, q_plan: np.ndarray, rate: float, *,
             problem = _stop_smoothly(robot, franky)
             if problem is not None and reason is not None:
                 reason += f"; stopping failed too ({problem})"
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
     return recorder.execution(reason is None, reason, time.perf_counter() - started)
 
 

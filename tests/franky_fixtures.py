@@ -1,0 +1,64 @@
+"""franky-sim, the libfranka-protocol simulator of an FR3 on MuJoCo, started by the tests
+on loopback like redis-server: ``franky_sim_server(address)`` runs the ``franky-sim``
+command (its ports are fixed, 1337 and 1338, so each server takes its own 127.0.0.x
+address), and waits until a libfranka client can connect. Tests using it skip when
+franky-sim or franky-control is not installed."""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+READY_TIMEOUT_S = 30.0
+
+
+def franky_sim_binary() -> str | None:
+    here = Path(sys.executable).with_name("franky-sim")
+    return str(here) if here.exists() else shutil.which("franky-sim")
+
+
+def require_franky() -> None:
+    pytest.importorskip("franky", reason="franky-control is not installed")
+    if franky_sim_binary() is None:
+        pytest.skip("franky-sim is not installed (pip install franky-sim)")
+
+
+@contextmanager
+def franky_sim_server(address: str, log: Path) -> Iterator[subprocess.Popen]:
+    """A franky-sim process serving the FCI at ``address`` until the block ends."""
+    import franky
+
+    require_franky()
+    with open(log, "wb") as out:
+        proc = subprocess.Popen([franky_sim_binary(), "-s", "mujoco", "--hostname", address],
+                                stdout=out, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        while True:
+            if proc.poll() is not None:
+                raise RuntimeError(f"franky-sim exited: {log.read_text(errors='replace')}")
+            try:
+                robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
+                del robot
+                break
+            except franky.NetworkException:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.2)
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
