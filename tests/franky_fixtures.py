@@ -34,9 +34,11 @@ def require_franky() -> None:
 @contextmanager
 def franky_sim_server(address: str, log: Path) -> Iterator[subprocess.Popen]:
     """A franky-sim process serving the FCI at ``address`` until the block ends."""
+    require_franky()
     import franky
 
-    require_franky()
+    from inkmotion.robot.franka import scheduling_kept
+
     with open(log, "wb") as out:
         proc = subprocess.Popen([franky_sim_binary(), "-s", "mujoco", "--hostname", address],
                                 stdout=out, stderr=subprocess.STDOUT)
@@ -46,8 +48,9 @@ def franky_sim_server(address: str, log: Path) -> Iterator[subprocess.Popen]:
             if proc.poll() is not None:
                 raise RuntimeError(f"franky-sim exited: {log.read_text(errors='replace')}")
             try:
-                robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
-                del robot
+                with scheduling_kept():
+                    robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
+                    del robot
                 break
             except franky.NetworkException:
                 if time.monotonic() > deadline:

@@ -20,6 +20,7 @@ from franky_fixtures import franky_sim_server, require_franky
 from inkmotion.errors import InputError, ServiceError
 from inkmotion.jobs.shell import run_job
 from inkmotion.jobs.spec import JobSpec
+from inkmotion.robot import franka
 
 ROOT = Path(__file__).resolve().parents[1]
 PLAN = ROOT / "tests" / "data" / "v4_jobs" / "fit" / "plan.json"  # a fitted Hershey word
@@ -36,19 +37,21 @@ def spec(address: str, **params: object) -> JobSpec:
 def arm_state(address: str) -> tuple[np.ndarray, np.ndarray]:
     import franky
 
-    robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
-    q, dq = np.array(robot.current_joint_positions), np.array(robot.current_joint_velocities)
-    del robot
+    with franka.scheduling_kept():
+        robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
+        q, dq = np.array(robot.current_joint_positions), np.array(robot.current_joint_velocities)
+        del robot
     return q, dq
 
 
 def move_arm(address: str, q: np.ndarray) -> None:
     import franky
 
-    robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
-    robot.move(franky.JointMotion(np.asarray(q, dtype=float), relative_dynamics_factor=0.3))
-    time.sleep(0.5)
-    del robot
+    with franka.scheduling_kept():
+        robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
+        robot.move(franky.JointMotion(np.asarray(q, dtype=float), relative_dynamics_factor=0.3))
+        time.sleep(0.5)
+        del robot
 
 
 HOME = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
@@ -99,7 +102,10 @@ def test_a_fitted_word_is_drawn_and_the_robots_states_follow_the_plan(sim: str,
 
 def test_a_dry_run_checks_everything_and_does_not_move(sim: str, tmp_path: Path) -> None:
     before, _ = arm_state(sim)
+    scheduling = os.sched_getscheduler(0), os.sched_getparam(0)
     report = run_job(spec(sim, dry_run=True), tmp_path / "dry")
+    # libfranka raised this thread to SCHED_FIFO 99; the job gave it its own policy back
+    assert (os.sched_getscheduler(0), os.sched_getparam(0)) == scheduling
     after, _ = arm_state(sim)
     assert report["dry_run"] and report["robot"]["model"] == "fr3"
     assert not (tmp_path / "dry" / "executed.csv").exists()

@@ -56,14 +56,15 @@ def teach_cmd(
         fail(f"--realtime {realtime!r} is not enforce or ignore; pass one of those.")
     try:
         base = load_setup(setup)
-        arm = franka.connect(robot, realtime=realtime == "enforce")
 
         def wait(i: int) -> None:
             out.print(f"Guide the pen tip onto the {CORNERS[i]} corner, then press Enter.",
                       highlight=False, soft_wrap=True)
             input()
 
-        corners = teach_corners(arm, base.pen_length, wait)
+        with franka.scheduling_kept():
+            arm = franka.connect(robot, realtime=realtime == "enforce")
+            corners = teach_corners(arm, base.pen_length, wait)
         taught = taught_setup(corners, setup)
         write_bytes_atomic(out_file, setup_to_toml(taught).encode("utf-8"))
     except (InkmotionError, EOFError) as exc:

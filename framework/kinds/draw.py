@@ -53,41 +53,42 @@ def run_draw(job: Job) -> dict[str, Any]:
     def stage(step: int, figures: dict[str, float]) -> None:
         job.observers.on_step(StepState(step, STEPS, figures, 0.0))
 
-    robot = franka.connect(p.robot, realtime=p.realtime == "enforce")
-    arm = franka.connected_arm(robot, p.model)
-    stage(1, {"connect_s": time.perf_counter() - job.started})
-    program = plan_program(drawing, setup, arm=arm,
-                           on_stage=lambda i, name: stage(i + 1, {}))
-    q_now = franka.joint_positions(robot)
-    franka.check_start(q_now, program.joints.q[0], arm, p.max_approach)
-    write_program(job.folder, program)
-    report = program_report(program)
-    report["robot"] = {"host": p.robot, "model": arm.name, "realtime": p.realtime,
-                       "start_distance_rad": float(np.abs(q_now - program.joints.q[0]).max()),
-                       "limits": _limits_table(arm)}
-    if p.dry_run:
-        stage(4, {})
-        report["dry_run"] = True
-        report["metrics"] = {"duration_s": report["duration_s"],
-                             "limit_min_margin": program.info["limits"]["min_margin"]}
+    with franka.scheduling_kept():  # libfranka leaves this thread at SCHED_FIFO 99
+        robot = franka.connect(p.robot, realtime=p.realtime == "enforce")
+        arm = franka.connected_arm(robot, p.model)
+        stage(1, {"connect_s": time.perf_counter() - job.started})
+        program = plan_program(drawing, setup, arm=arm,
+                               on_stage=lambda i, name: stage(i + 1, {}))
+        q_now = franka.joint_positions(robot)
+        franka.check_start(q_now, program.joints.q[0], arm, p.max_approach)
+        write_program(job.folder, program)
+        report = program_report(program)
+        report["robot"] = {"host": p.robot, "model": arm.name, "realtime": p.realtime,
+                           "start_distance_rad": float(np.abs(q_now - program.joints.q[0]).max()),
+                           "limits": _limits_table(arm)}
+        if p.dry_run:
+            stage(4, {})
+            report["dry_run"] = True
+            report["metrics"] = {"duration_s": report["duration_s"],
+                                 "limit_min_margin": program.info["limits"]["min_margin"]}
+            return report
+        approach_s = franka.approach(robot, program.joints.q[0], p.approach_speed)
+        stage(4, {"approach_s": approach_s})
+        started_after = time.perf_counter() - job.started
+        execution = franka.stream(robot, program.joints.q, program.joints.rate)
+        report["robot"].update({"approach_s": approach_s, "drawing_started_after_s": started_after})
+        if not execution.completed:
+            _stopped(job, program, execution, report, robot, p.recover)
+        stage(5, {"drawn_s": execution.duration})
+        figures = write_execution(job.folder, program, execution, arm, job)
+        report["robot"].update(figures)
+        report["completed"] = True
+        report["metrics"] = {k: figures[k] for k in (
+            "flange_rms_mm", "flange_max_mm", "tracking_down_plane_rms_mm",
+            "tracking_down_plane_max_mm", "real_time_factor")} | {
+            "duration_s": report["duration_s"], "drawing_started_after_s": started_after}
+        stage(6, {})
         return report
-    approach_s = franka.approach(robot, program.joints.q[0], p.approach_speed)
-    stage(4, {"approach_s": approach_s})
-    started_after = time.perf_counter() - job.started
-    execution = franka.stream(robot, program.joints.q, program.joints.rate)
-    report["robot"].update({"approach_s": approach_s, "drawing_started_after_s": started_after})
-    if not execution.completed:
-        _stopped(job, program, execution, report, robot, p.recover)
-    stage(5, {"drawn_s": execution.duration})
-    figures = write_execution(job.folder, program, execution, arm, job)
-    report["robot"].update(figures)
-    report["completed"] = True
-    report["metrics"] = {k: figures[k] for k in (
-        "flange_rms_mm", "flange_max_mm", "tracking_down_plane_rms_mm",
-        "tracking_down_plane_max_mm", "real_time_factor")} | {
-        "duration_s": report["duration_s"], "drawing_started_after_s": started_after}
-    stage(6, {})
-    return report
 
 
 def _limits_table(arm: ArmLimits) -> dict[str, list[float]]:

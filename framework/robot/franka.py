@@ -24,15 +24,25 @@ later. Ctrl-C and SIGTERM end the motion with franky's ``TorqueStopMotion``, whi
 the last torque into pure joint damping and brings the arm to rest where it is. In every
 case :func:`stream` returns what was recorded up to the stop, with the reason, and leaves
 the arm stopped; it never raises while the arm moves.
+
+Scheduling. libfranka raises the thread that connects or moves the robot to SCHED_FIFO at
+priority 99, and asks for it even under ``RealtimeConfig.Ignore`` (it gets it wherever the
+process may, as root). A thread left there starves every other thread on its core, and the
+processes it starts afterwards inherit the policy: a worker pool forked or spawned later
+busy-waits at priority 99 (the quality benchmark run after a draw in one process went from
+19 s to over 15 min). Code that uses the robot therefore runs inside
+:func:`scheduling_kept`, which gives the calling thread its own policy back.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 import time
 import xml.etree.ElementTree as ET
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,6 +75,21 @@ def _franky() -> Any:
         raise RobotError("Driving a Franka needs franky (pip install franky-control, or "
                          "pip install 'inkmotion[robot]'), which is not installed.") from exc
     return franky
+
+
+@contextmanager
+def scheduling_kept() -> Iterator[None]:
+    """Run the block, then give the calling thread back the scheduling policy and priority
+    it had before (libfranka leaves it at SCHED_FIFO 99; module docstring)."""
+    if not hasattr(os, "sched_getscheduler"):  # pragma: no cover - macOS, Windows
+        yield
+        return
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        yield
+    finally:
+        if (os.sched_getscheduler(0), os.sched_getparam(0)) != (policy, param):
+            os.sched_setscheduler(0, policy, param)
 
 
 def connect(host: str, *, realtime: bool = True,
