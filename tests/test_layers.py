@@ -52,8 +52,8 @@ PROTOCOLS = "inkmotion.plugin_host.protocols"
 
 FOUNDATION = ("errors", "json_files", "settings", "rng", "lazy", "events", "devices")
 ENGINES = ("sigma_lognormal", "geometry", "inputs", "rendering", "image_losses", "fitting",
-           "clip", "saliency", "initialisers", "images", "outputs", "robot", "evaluation",
-           "recording", "profiling", "store", "speed_extrema")
+           "clip", "saliency", "initialisers", "images", "outputs", "robot", "plotter",
+           "evaluation", "recording", "profiling", "store", "speed_extrema")
 
 #: layer -> (its packages under ``inkmotion.``, the layers it may import, the rule in words)
 LAYERS: dict[str, tuple[tuple[str, ...], frozenset[str], str]] = {

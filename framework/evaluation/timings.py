@@ -26,14 +26,12 @@ import numpy as np
 import torch
 
 from inkmotion.robot.timing import time_scale
-from inkmotion.sigma_lognormal.batch import PlanBatch
-from inkmotion.sigma_lognormal.kinematics import SUPPORT_SIGMAS, kinematics
+from inkmotion.sigma_lognormal.kinematics import kinematics
 from inkmotion.sigma_lognormal.plan import MotorPlan
+from inkmotion.sigma_lognormal.support import support
 
 #: fraction of v_max and a_max the measured peaks are scaled to (a peak between grid points)
 SAFETY = 0.999
-#: grid of each sub-movement's ln τ used to measure the ΣΛ peaks, z ∈ [−5, 5] σ
-GRID_POINTS = 401
 #: half-step (plan s) of the central difference of the exact ΣΛ acceleration (the jerk)
 JERK_STEP = 1e-5
 
@@ -127,16 +125,6 @@ def via_points_and_times(path: np.ndarray, times: np.ndarray | None, spacing: fl
     return points, np.interp(targets, measure, np.asarray(times, dtype=float)[keep])
 
 
-def _support(plan: MotorPlan) -> tuple[float, float, np.ndarray]:
-    """The evaluated support [t_a, t_b] = [min t0 + e^{μ−5σ}, max t0 + e^{μ+5σ}] of a
-    float64 plan (the pen at rest at p0 and p_m) and the union of its sub-movements' grids
-    t0_i + exp(μ_i + σ_i z), z ∈ [−5, 5] (as :mod:`inkmotion.robot.timing`)."""
-    sigma, mu, t0 = (x.numpy() for x in PlanBatch.from_plans([plan]).timing())
-    z = np.linspace(-SUPPORT_SIGMAS, SUPPORT_SIGMAS, GRID_POINTS)
-    grid = t0[:, None] + np.exp(mu[:, None] + sigma[:, None] * z)  # (m, G)
-    return float(grid[:, 0].min()), float(grid[:, -1].max()), np.unique(grid.ravel())
-
-
 def _planar(plan: MotorPlan, t: np.ndarray) -> tuple[np.ndarray, ...]:
     """Exact (x, y) positions, velocities and accelerations (n, 2) at plan times ``t``."""
     with torch.no_grad():
@@ -153,8 +141,8 @@ def sigma_lognormal_timing(plan: MotorPlan, v_max: float, a_max: float,
     checked on the control samples themselves; positions, velocities and accelerations are
     the exact ΣΛ kinematics (no interpolation) and the jerk is the central difference of the
     exact acceleration with a half-step of ``JERK_STEP`` plan seconds."""
-    p = plan.detached().to(device="cpu", dtype=torch.float64)
-    t_a, t_b, grid = _support(p)
+    s = support(plan)
+    p, t_a, t_b, grid = s.plan, s.t_a, s.t_b, s.grid
     _, v_grid, a_grid = _planar(p, grid)
     peak_v, peak_a = peaks(v_grid, a_grid)
     k, limiting = time_scale(peak_v, peak_a, SAFETY * v_max, SAFETY * a_max)

@@ -42,7 +42,6 @@ rounded up to a whole number of control periods.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -50,15 +49,13 @@ import torch
 from inkmotion.robot.calibration import PaperMapping
 from inkmotion.robot.setup import RobotSetup
 from inkmotion.robot.types import CartesianTrajectory
-from inkmotion.sigma_lognormal.batch import PlanBatch
-from inkmotion.sigma_lognormal.kinematics import SUPPORT_SIGMAS, kinematics
-from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+from inkmotion.sigma_lognormal.kinematics import kinematics
+from inkmotion.sigma_lognormal.plan import Drawing
+from inkmotion.sigma_lognormal.support import Support, support
 
 #: fraction of v_max and a_max the drawing's measured peaks are scaled to (covers the
 #: peak between grid points, < 2e-4 relative)
 SAFETY = 0.999
-#: grid of each sub-movement's ln τ, in σ: z ∈ [−5, 5], 401 points (Δz = 0.025)
-GRID_POINTS = 401
 #: minimum-jerk peak factors: |ṡ| ≤ 15/8, |s̈| ≤ 10/√3 for s(τ) = 10τ³ − 15τ⁴ + 6τ⁵
 QUINTIC_SPEED = 15.0 / 8.0
 QUINTIC_ACCELERATION = 10.0 / math.sqrt(3.0)
@@ -73,28 +70,7 @@ MAX_DOT_S = 1.0
 START_CLEARANCE = 0.05
 
 
-@dataclass(frozen=True)
-class _Stroke:
-    """One plan path ready for timing: float64 CPU plan and its evaluated support."""
-
-    plan: MotorPlan
-    t_a: float  # plan s: start of the support, the pen at p0 at rest
-    t_b: float  # plan s: end of the support, the pen at p_m at rest
-    grid: np.ndarray  # (G,) plan s: the peak-measuring grid
-
-
-def _prepare(plan: MotorPlan) -> _Stroke:
-    """The support [t_a, t_b] = [min t0 + e^{μ−5σ}, max t0 + e^{μ+5σ}] of ``plan`` and the
-    union of its sub-movements' grids t0_i + exp(μ_i + σ_i·z)."""
-    p = plan.detached().to(device="cpu", dtype=torch.float64)
-    sigma, mu, t0 = (x.numpy() for x in PlanBatch.from_plans([p]).timing())
-    z = np.linspace(-SUPPORT_SIGMAS, SUPPORT_SIGMAS, GRID_POINTS)
-    grid = t0[:, None] + np.exp(mu[:, None] + sigma[:, None] * z)  # (m, G)
-    return _Stroke(p, float(grid[:, 0].min()), float(grid[:, -1].max()),
-                   np.unique(grid.ravel()))
-
-
-def _tip(stroke: _Stroke, t: np.ndarray, mapping: PaperMapping, setup: RobotSetup
+def _tip(stroke: Support, t: np.ndarray, mapping: PaperMapping, setup: RobotSetup
          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pen tip (u, v, d) in the plane frame at plan times ``t`` (n,): positions (n, 3) m,
     velocities (n, 3) m/s and accelerations (n, 3) m/s² in plan time."""
@@ -130,7 +106,7 @@ def time_scale(peak_speed: float, peak_acc: float, v_max: float, a_max: float
     return (by_speed, "speed") if by_speed >= by_acc else (by_acc, "acceleration")
 
 
-def _sample(stroke: _Stroke, k: float, rate: float, mapping: PaperMapping,
+def _sample(stroke: Support, k: float, rate: float, mapping: PaperMapping,
             setup: RobotSetup) -> tuple[np.ndarray, float, float]:
     """The stroke at the control rate under time scale ``k``: positions (n + 1, 3) m in the
     plane frame at t_plan = t_a + j/(rate·k), clamped to t_b (the pen rests there), with
@@ -171,7 +147,7 @@ def time_drawing(drawing: Drawing, setup: RobotSetup, start: np.ndarray | None =
     its figures."""
     mapping = mapping or PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin)
     rate, plane = float(setup.control_rate), setup.plane
-    strokes = [_prepare(plan) for plan in drawing.plans]
+    strokes = [support(plan) for plan in drawing.plans]
     assert strokes, "a drawing has at least one plan"
 
     peaks = [_peaks(*_tip(s, s.grid, mapping, setup)[1:]) for s in strokes]
