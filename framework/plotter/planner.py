@@ -46,9 +46,9 @@ def run_time(points: np.ndarray, feeds: np.ndarray, machine: Machine) -> float:
     if n > 1:
         jv = u[1:] - u[:-1]
         norm = np.linalg.norm(jv, axis=1)
-        ja = np.where(norm > 1e-12, _axis_limited(machine.max_accel,
-                                                  jv / np.maximum(norm, 1e-12)[:, None]),
-                      machine.max_accel)
+        bent = norm > 1e-12
+        unit = np.where(bent[:, None], jv / np.where(bent, norm, 1.0)[:, None], [1.0, 0.0])
+        ja = _axis_limited(machine.max_accel, unit)
         vj = junction_speed(u[:-1], u[1:], ja, machine.junction_deviation)
         entry_max[1:] = np.minimum(vj, np.minimum(nominal[:-1], nominal[1:])) ** 2
     # backward: each block's exit can still stop within the blocks held after it
