@@ -71,6 +71,32 @@ def pen_runs(gcode: str, machine: str = "grbl") -> list[np.ndarray]:
     return [np.array(r) for r in runs]
 
 
+def executed_feeds(gcode: str, trace: list) -> tuple[np.ndarray, np.ndarray]:
+    """For every G1 segment: its commanded feed and the mean speed the simulator's machine
+    drew it at (its length over the time the replay spent on it), mm/s."""
+    moves, here = [], (0.0, 0.0)
+    for line in gcode.splitlines():
+        if line.startswith(("G0 X", "G1 X")):
+            xy = tuple(float(v) for v in re.findall(r"[XY](-?[0-9.]+)", line))
+            feed = re.search(r"F([0-9.]+)", line)
+            if xy != here:
+                moves.append((xy, float(feed.group(1)) / 60 if feed and line[1] == "1" else None,
+                              math.dist(xy, here)))
+            here = xy
+    commanded, executed, at, last_t = [], [], 0, 0.0
+    for node in trace[1:]:
+        (x, y), feed, length = moves[at]
+        if abs(node.x - x) < 1e-6 and abs(node.y - y) < 1e-6:
+            if feed is not None:
+                commanded.append(feed)
+                executed.append(length / (node.time - last_t))
+            last_t, at = node.time, at + 1
+            if at == len(moves):
+                break
+    assert at == len(moves)
+    return np.array(commanded), np.array(executed)
+
+
 def plan_on_paper(plan: Path, report: dict) -> list[np.ndarray]:
     """Each plan path's exact trajectory, densely sampled, in paper mm (the layout of
     ``report``: scale, paper, margin, centred; machine Y up)."""
@@ -139,6 +165,11 @@ def test_feeds_stay_below_v_max_and_follow_the_sigma_lognormal_speed(plotted) ->
     assert feeds.max() <= report["v_max"] + 0.05  # F is written to 0.1 mm/min
     assert report["feed_speed_correlation"] >= 0.95
     assert report["timing"]["junctions_within_rule"]
+    # the machine replayed by the simulator draws each segment at the feed asked for
+    _, trace = simulate(gcode)
+    commanded, executed = executed_feeds(gcode, trace)
+    assert np.corrcoef(commanded, executed)[0, 1] >= 0.95
+    assert np.median(executed / commanded) == pytest.approx(1.0, abs=0.02)
 
 
 def test_the_time_estimate_agrees_with_a_grbl_planner_simulator(plotted) -> None:
