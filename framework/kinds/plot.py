@@ -13,6 +13,7 @@ travelled, the peak feed and how closely the feeds follow the plan's speed.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -30,7 +31,7 @@ STEPS = 3
 def plan_pens(path: str, paths: int) -> list[int]:
     """The pen of every path of plan.json (its optional ``"pen"``, a number ≥ 1; 1 when
     absent)."""
-    raw = json.loads(open(path, encoding="utf-8").read()).get("paths", [])
+    raw = json.loads(Path(path).read_text(encoding="utf-8")).get("paths", [])
     pens = []
     for i, entry in enumerate(raw[:paths]):
         pen = entry.get("pen", 1) if isinstance(entry, dict) else 1

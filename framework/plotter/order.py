@@ -18,6 +18,10 @@ def tour_length(order: list[int], starts: np.ndarray, ends: np.ndarray) -> float
     return total + float(np.linalg.norm(here))
 
 
+#: above this many strokes only the greedy tour is made (or-opt is O(n³) per pass here)
+MAX_IMPROVED = 150
+
+
 def optimise_order(starts: np.ndarray, ends: np.ndarray, max_passes: int = 50) -> list[int]:
     """A stroke order with short pen-up travel (module docstring)."""
     n = len(starts)
@@ -28,7 +32,7 @@ def optimise_order(starts: np.ndarray, ends: np.ndarray, max_passes: int = 50) -
         left.remove(i)
         here = ends[i]
     best = tour_length(order, starts, ends)
-    for _ in range(max_passes):
+    for _ in range(max_passes if n <= MAX_IMPROVED else 0):
         improved = False
         for pos in range(n):
             stroke = order[pos]
