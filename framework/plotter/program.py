@@ -6,8 +6,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from inkmotion.plotter.machine import Machine
 from inkmotion.plotter.timing import PlotStroke
 
@@ -35,11 +33,3 @@ def build_program(strokes: list[PlotStroke], machine: Machine) -> list[Block]:
     blocks.append(Block("travel", (0.0, 0.0)))
     return blocks
 
-
-def travel_length(strokes: list[PlotStroke]) -> float:
-    """mm of pen-up travel: X0 Y0 → each stroke in order → X0 Y0."""
-    here, total = np.zeros(2), 0.0
-    for st in strokes:
-        total += float(np.linalg.norm(st.points[0] - here))
-        here = st.points[-1]
-    return total + float(np.linalg.norm(here))

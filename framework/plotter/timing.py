@@ -196,29 +196,31 @@ def time_for_plotter(drawing: Drawing, mapping: PaperMapping, pens: list[int], *
     return PlotTiming(strokes, k, limiting, info)
 
 
-def _junction_excess(points: np.ndarray, speed_at: np.ndarray, accel: float,
-                     deviation: float, junctions: str) -> float:
-    """max over a stroke's smooth junctions (turning by less than ``SMOOTH_TURN_DEG``) of
-    the plan's speed there over the machine's junction speed v_j (≤ 1: the machine passes
-    them as fast as the plan does)."""
-    if len(points) < 3:
-        return 0.0
+def _directions(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The unit directions before and after every interior junction of a polyline (n, 2)
+    each, and whether each junction is smooth (turns by less than ``SMOOTH_TURN_DEG``)."""
     d = np.diff(points, axis=0)
     u = d / np.linalg.norm(d, axis=1)[:, None]
     smooth = np.sum(u[:-1] * u[1:], axis=1) > math.cos(math.radians(SMOOTH_TURN_DEG))
+    return u[:-1], u[1:], smooth
+
+
+def _junction_excess(points: np.ndarray, speed_at: np.ndarray, accel: float,
+                     deviation: float, junctions: str) -> float:
+    """max over a stroke's smooth junctions of the plan's speed there over the machine's
+    junction speed v_j (≤ 1: the machine passes them as fast as the plan does)."""
+    if len(points) < 3:
+        return 0.0
+    u1, u2, smooth = _directions(points)
     if not smooth.any():
         return 0.0
-    vj = junction_speed(u[:-1][smooth], u[1:][smooth], accel, deviation)
+    u1, u2 = u1[smooth], u2[smooth]
+    vj = junction_speed(u1, u2, accel, deviation)
     if junctions == "strict":
-        vj = np.minimum(vj, circle_junction_speed(u[:-1][smooth], u[1:][smooth], accel,
-                                                  deviation))
+        vj = np.minimum(vj, circle_junction_speed(u1, u2, accel, deviation))
     return float(np.max(speed_at[1:-1][smooth] / vj))
 
 
 def sharp_junctions(points: np.ndarray) -> int:
     """How many of a stroke's junctions turn by ``SMOOTH_TURN_DEG`` or more (cusps)."""
-    if len(points) < 3:
-        return 0
-    d = np.diff(points, axis=0)
-    u = d / np.linalg.norm(d, axis=1)[:, None]
-    return int(np.sum(np.sum(u[:-1] * u[1:], axis=1) <= math.cos(math.radians(SMOOTH_TURN_DEG))))
+    return 0 if len(points) < 3 else int(np.sum(~_directions(points)[2]))
