@@ -56,6 +56,9 @@ def service_env(redis_url: str,
         "INKMOTION_BROKER_URL": redis_url,
         "INKMOTION_VISIBILITY_TIMEOUT": str(TEST_VISIBILITY_TIMEOUT),
         "INKMOTION_RESTORE_INTERVAL": "1",
+        # a killed worker's job is queued again by a reaper within seconds
+        "INKMOTION_LEASE_S": "8",
+        "INKMOTION_REAPER_INTERVAL": "1",
         "INKMOTION_SOFT_TIME_LIMIT": str(TEST_VISIBILITY_TIMEOUT - 5),
         "INKMOTION_TIME_LIMIT": str(TEST_VISIBILITY_TIMEOUT - 2),
     }

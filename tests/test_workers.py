@@ -166,8 +166,9 @@ def test_cancel_a_running_job(workers, service_env):
 
 def test_kill_9_of_a_worker_mid_job_another_worker_completes_it(workers, service_env):
     """Celery's own acks_late test, with real processes: the job's worker is killed with
-    SIGKILL mid-run; Redis redelivers the unacknowledged job after the visibility timeout
-    and the other worker completes it, with exactly one result set."""
+    SIGKILL mid-run; its lease expires (the session's is short) and a reaper queues it
+    again, or Redis redelivers the unacknowledged job after the visibility timeout,
+    whichever comes first; the other worker completes it, with exactly one result set."""
     steps = 700
     (job_id,) = submit("text:hello", "--steps", str(steps), "--size", "128")
     first = wait_for(lambda: _running(job_id, min_step=20), 60)
@@ -191,7 +192,12 @@ def test_kill_9_of_a_worker_mid_job_another_worker_completes_it(workers, service
 
 #: the production defaults of the time limits (soft 3 h, hard + 5 min, visibility + 10 min)
 DEFAULT_LIMITS = {"INKMOTION_SOFT_TIME_LIMIT": "10800", "INKMOTION_TIME_LIMIT": "11100",
-                  "INKMOTION_VISIBILITY_TIMEOUT": "11700", "INKMOTION_RESTORE_INTERVAL": "60"}
+                  "INKMOTION_VISIBILITY_TIMEOUT": "11700", "INKMOTION_RESTORE_INTERVAL": "60",
+                  "INKMOTION_LEASE_S": "30", "INKMOTION_REAPER_INTERVAL": "10"}
+
+#: the production time limits with a short lease: a killed worker's job is queued again
+#: within seconds (the tests of what happens after that need not wait the default 40 s)
+QUICK_LEASE = {**DEFAULT_LIMITS, "INKMOTION_LEASE_S": "6", "INKMOTION_REAPER_INTERVAL": "1"}
 
 
 def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute(
@@ -246,7 +252,7 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
 @pytest.mark.slow
 def test_a_tag_whose_worker_is_killed_after_step_60_resumes_from_its_checkpoint(
         worker_pool, service_env, tmp_path):
-    """A 'tag' job (random CLIP weights, 120 steps) optimises through the same core as a
+    """A 'tag' job (random CLIP weights, 80 steps) optimises through the same core as a
     fit, so it checkpoints like one: its worker is killed with SIGKILL after step 60,
     another worker's reaper queues it again, and it resumes from the dead attempt's
     checkpoint at step 50 and finishes with one result set and the plan of an
@@ -256,11 +262,11 @@ def test_a_tag_whose_worker_is_killed_after_step_60_resumes_from_its_checkpoint(
     from inkmotion.recording import read_steps
     from inkmotion.workers.local import WorkerPool
 
-    # a 2048-px canvas makes a step ~0.15 s here, so the kill lands between 60 and 120
-    args = ["CREAM", "--clip-model", TINY_CLIP, "--clip-weights", "random", "--steps", "120",
+    # a 2048-px canvas makes a step ~0.15 s here, so the kill lands between 60 and 80
+    args = ["CREAM", "--clip-model", TINY_CLIP, "--clip-weights", "random", "--steps", "80",
             "--size", "2048", "--targets", "300", "--device", "cpu"]
     worker_pool.stop_all()  # the session's workers' time limit is shorter than this job
-    pool = WorkerPool({**service_env, **DEFAULT_LIMITS}, tmp_path / "logs")
+    pool = WorkerPool({**service_env, **QUICK_LEASE}, tmp_path / "logs")
     try:
         pool.ensure(("t1", "t2"))
         res = inkmotion_cli("submit", "tag", *args, "--json")
@@ -271,14 +277,14 @@ def test_a_tag_whose_worker_is_killed_after_step_60_resumes_from_its_checkpoint(
         at_kill = store.get_job(job_id).step
         wait_succeeded(job_id, timeout=180)
         r = store.get_job(job_id)
-        assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 120
-        assert r.worker_host != first.worker_host and 60 <= at_kill < 120
+        assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 80
+        assert r.worker_host != first.worker_host and 60 <= at_kill < 80
         artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]),
                                           TAG_ARTIFACTS)
         report = json.loads((artifacts / "report.json").read_text())
-        assert report["steps"] == 120 and report["resumed_from_step"] == 50
+        assert report["steps"] == 80 and report["resumed_from_step"] == 50
         assert report["clip_weights"] == "random"
-        assert read_steps(artifacts / "recording.rrd") == list(range(51, 121))
+        assert read_steps(artifacts / "recording.rrd") == list(range(51, 81))
         assert not (artifacts.parent / "checkpoint.pt").exists()
         print(f"tag killed at step {at_kill} on {first.worker_host}; finished on "
               f"{r.worker_host}, resumed from step {report['resumed_from_step']}")
@@ -298,10 +304,10 @@ def test_a_batch_of_fits_on_one_worker_survives_a_kill_9(worker_pool, service_en
     from inkmotion.workers.local import WorkerPool
 
     worker_pool.stop_all()
-    env = {**service_env, **DEFAULT_LIMITS, "INKMOTION_WORKER_BATCH": "3"}
+    env = {**service_env, **QUICK_LEASE, "INKMOTION_WORKER_BATCH": "3"}
     pool = WorkerPool(env, tmp_path / "logs")
     try:
-        ids = [submit(w, "--steps", "900", "--size", "128")[0]
+        ids = [submit(w, "--steps", "400", "--size", "128")[0]
                for w in ("text:hi", "text:ok", "text:go")]
         pool.ensure(("b1",))
         wait_for(lambda: all(_running(i, min_step=60) for i in ids) or None, 120)
@@ -312,14 +318,14 @@ def test_a_batch_of_fits_on_one_worker_survives_a_kill_9(worker_pool, service_en
         data = Path(service_env["INKMOTION_DATA_DIR"])
         for i in ids:
             r = store.get_job(i)
-            assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 900
+            assert r.status == "succeeded" and r.attempts == 2 and r.step == r.total == 400
             assert_one_result_set(r, data)
             log = (data / "jobs" / i / "job.log").read_text()
             assert "a batch of 3" in log
             report = json.loads((Path(r.artifact_dir) / "report.json").read_text())
-            assert report["steps"] == 900
+            assert report["steps"] == 400
             # each resumed from its own checkpoint of the batch (every 50 steps)
-            assert 50 <= report["resumed_from_step"] < 900
+            assert 50 <= report["resumed_from_step"] < 400
     finally:
         pool.stop_all()
 
