@@ -7,7 +7,7 @@ PIP := $(PY) -m pip
 DEMO_OUT ?= results/demo
 DEMO_INPUT ?= text:inkmotion
 
-.PHONY: demo test venv test-venv redis postgres browser gallery lint bench clean
+.PHONY: demo test venv test-venv redis postgres browser gallery lint bench docs clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -84,6 +84,11 @@ gallery: test-venv browser $(GALLERY_FITS) gallery/out/robot-$(GALLERY_SPRAY)/jo
 	$(VENV)/bin/inkmotion gallery build --no-store --from gallery/out --out gallery/site \
 	  --title "inkmotion: the curated gallery"
 	$(PY) -m inkmotion.gallery.browser gallery/site gallery/screenshots run-fit-$(GALLERY_SPRAY)-
+
+## docs: regenerate docs/cli.md, the command-line reference, from the kinds' declarations
+## and the command tree (tests/test_docs.py fails when it is out of date)
+docs: $(VENV)/.installed
+	$(PY) -m inkmotion.cli.reference > docs/cli.md.tmp && mv docs/cli.md.tmp docs/cli.md
 
 lint: test-venv
 	$(VENV)/bin/ruff check .
