@@ -11,6 +11,11 @@ Loss values travel as 0-d tensors, still on the job's device: reading one (``flo
 waits for the device, so an observer reads them only on the steps it shows them (the
 progress bar every few steps, the recording in batches) and the step loop itself never
 synchronises with the GPU.
+
+What the progress bar shows beside the step count is the kind's to say: an optimisation
+leaves ``StepState.figures`` unset and the bar shows its loss terms and T_end; a kind that
+optimises nothing (simulate, evaluate, plot, draw) sets ``figures`` to its own (the stage
+it is in, the figures known so far), and the bar shows those and nothing else.
 """
 
 from __future__ import annotations
@@ -39,15 +44,27 @@ class StepState:
     step: int  # 1-based
     total: int
     losses: dict[str, Any]  # every loss term and "total": 0-d tensors (or floats)
-    t_end: Any  # mean T_end over paths: a 0-d tensor (or a float)
+    t_end: Any  # mean T_end over paths: a 0-d tensor (or a float); None: the kind has none
     rendered: Any = None  # (H, W), only when asked for (see wants_image)
     positions: list = field(default_factory=list)  # per path (n_p, D)
     speeds: list = field(default_factory=list)  # per path (n_p,)
     targets: list = field(default_factory=list)  # virtual targets per path
+    #: what the progress bar shows beside the count, in order: name → text, number or 0-d
+    #: tensor (read only when shown); None: the loss terms and T_end (an optimisation)
+    figures: dict[str, Any] | None = None
 
     def loss_values(self) -> dict[str, float]:
         """The loss terms as Python floats (one device synchronisation)."""
         return scalars(self.losses)
+
+    def shown(self) -> dict[str, Any]:
+        """What a progress display shows of this step: the kind's ``figures``, else the
+        total loss, T_end and the loss terms (0-d tensors not read yet)."""
+        if self.figures is not None:
+            return dict(self.figures)
+        terms = {k: v for k, v in self.losses.items() if k != "total"}
+        total = {"loss": self.losses["total"]} if "total" in self.losses else {}
+        return {**total, "T_end": self.t_end, **terms}
 
 
 class Observer(Protocol):

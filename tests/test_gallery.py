@@ -348,3 +348,64 @@ def test_a_page_is_rebuilt_when_a_job_made_from_its_plan_goes(gallery_jobs, tmp_
     second = build_gallery(collect(store=False, folders=[results]), site)
     assert second.built == [fit_id] and len(second.removed) == 1
     assert 'id="used-by"' not in (site / "jobs" / fit_id / "index.html").read_text()
+
+
+def _card_text(site: Path, job_id: str) -> str:
+    """The words of one card's figures on the index (their HTML without the tags)."""
+    html = (site / "index.html").read_text(encoding="utf-8")
+    start = html.index('<dl class="figures">', html.index(f'data-id="{job_id}"'))
+    card = html[start:html.index("</dl>", start)]
+    return re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", card)).replace("&amp;", "&")
+
+
+def test_every_kind_labels_its_figures_in_words(gallery_jobs, tmp_path):
+    site = tmp_path / "site"
+    build(gallery_jobs, site)
+    by_kind = {c["data-kind"]: c["data-id"] for c in cards(site).values()
+               if c["data-status"] == "succeeded" and c["data-id"].startswith("run-")}
+    sim_report = json.loads((gallery_jobs.results / "fit-hi-robot" / "report.json").read_text())
+    sim = _card_text(site, by_kind["simulate"])
+    # the job's run time and the arm's motion time are two figures, each named, with units
+    assert "run time" in sim and f"motion time {sim_report['duration_s']:.3g} s" in sim, sim
+    assert "duration s" not in sim and "tracking RMS, pen down" in sim and " mm" in sim
+    assert "drawn in contact" in sim and "%" in sim
+    fit = _card_text(site, by_kind["fit"])
+    assert "Chamfer max" in fit and " px" in fit and "T_end after / before" in fit
+    evaluation = _card_text(site, by_kind["evaluate"])
+    assert "minimum jerk / ΣΛ, MSJ" in evaluation and "_ratio" not in evaluation
+    for kind, job_id in by_kind.items():  # no report key (``x_mm``) names a figure
+        assert not re.search(r"\b[a-z]+_[a-z_]+\b", _card_text(site, job_id).replace(
+            "T_end", "")), (kind, _card_text(site, job_id))
+
+    page = Page(site / "jobs" / by_kind["simulate"] / "index.html")
+    rows = [(tag, "".join(text).strip()) for tag, _, text in page.elements
+            if tag in ("th", "td", "span")]
+    words = " ".join(t for _, t in rows)
+    assert "IK position error, max" in words and "simulation speed" in words
+    html = (site / "jobs" / by_kind["simulate"] / "index.html").read_text(encoding="utf-8")
+    # a parameter's special value says what it means, from the parameter's own help
+    assert re.search(r"<code>v_max</code></th><td>0 <span class=\"meaning\">— the setup's",
+                     html.replace("&#39;", "'")), html
+    heads = [("".join(t)).strip() for tag, _, t in Page(
+        site / "jobs" / by_kind["evaluate"] / "index.html").elements if tag == "th"]
+    assert "MSJ, m²/s⁶" in heads and "duration, s" in heads
+
+
+def test_figure_labels_and_value_meanings() -> None:
+    from inkmotion.gallery import summary
+
+    assert summary.figure("duration_s", 23.47, "simulate") == ("motion time", "23.5 s")
+    assert summary.figure("estimated_s", 42.72, "plot") == ("plot time, estimated", "42.7 s")
+    assert summary.figure("v_max", 100.0, "plot") == ("feed limit", "100 mm/s")
+    assert summary.figure("v_max", 0.25, "evaluate") == ("speed limit", "0.25 m/s")
+    assert summary.figure("time-optimal_duration_ratio", 0.329) == (
+        "time-optimal / ΣΛ, duration", "0.329×")
+    assert summary.figure("tracking_up_3d_max_mm", 1.5) == ("tracking up 3d max", "1.5 mm")
+    assert summary.figure("real_time_factor", 44.4) == ("simulation speed", "44.4× real time")
+    assert summary.value_meaning("Pen speed limit, m/s (0: the setup's).", 0.0) == \
+        "the setup's"
+    assert summary.value_meaning("Which path (0-based); -1: every path (the longest "
+                                 "plotted).", -1) == "every path (the longest plotted)"
+    assert summary.value_meaning("Pen speed limit, m/s (0: the setup's).", 0.3) is None
+    assert summary.value_meaning("Setup TOML; empty: the shipped default.", "") == \
+        "the shipped default"

@@ -43,7 +43,7 @@ def tag_dir(tmp_path_factory) -> Path:
     res = inkmotion("run", "tag", "CREAM", "--clip-model", TINY, "--clip-weights", "random",
                     "--steps", "12", "--size", "64", "--targets", "8", "--out", str(out))
     assert res.returncode == 0, res.stderr
-    assert "random" in res.stderr.lower()  # the warning is shown
+    (out.parent / "stderr.txt").write_text(res.stderr)
     return out
 
 
@@ -84,6 +84,37 @@ def test_abstract_is_one_varying_width_path(abstract_dir: Path) -> None:
     assert report["canvas"] == {"width": 80, "height": 80}
     header = (abstract_dir / "trajectory.csv").read_text().splitlines()[0]
     assert header.split(",")[:5] == ["path", "t", "x", "y", "r"]
+
+
+def test_the_random_weights_warning_is_said_once(tag_dir: Path) -> None:
+    from inkmotion.clip.model import RANDOM_WARNING
+
+    stderr = (tag_dir.parent / "stderr.txt").read_text()
+    assert stderr.count("random") == 1, stderr  # not open_clip's, warnings' and the log's
+    assert f"warning: {RANDOM_WARNING}" in stderr
+    assert "No pretrained weights" not in stderr and "UserWarning" not in stderr
+    report = json.loads((tag_dir / "report.json").read_text())
+    assert report["warnings"] == [RANDOM_WARNING]  # and the store's record says it too
+
+
+def test_a_photo_that_is_no_image_fails_before_clip_is_loaded(tmp_path: Path) -> None:
+    """The cheap check (is the file an image?) runs before the costly one (CLIP): the job
+    fails with one sentence and open_clip is never imported."""
+    bad = tmp_path / "photo.png"
+    bad.write_text("a text file, not a photo")
+    probe = ("import sys\n"
+             "from inkmotion.cli.main import main\n"
+             f"sys.argv = ['inkmotion', 'run', 'abstract', {str(bad)!r}, '--clip-model', "
+             f"{TINY!r}, '--clip-weights', 'random', '--out', {str(tmp_path / 'out')!r}]\n"
+             "try:\n    main()\n"
+             "except SystemExit as exc:\n"
+             "    print('exit', exc.code, 'open_clip' in sys.modules)\n")
+    res = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         timeout=300)
+    assert res.stdout.split() == ["exit", "1", "False"], (res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and str(bad) in lines[0]
+    assert not (tmp_path / "out").exists()
 
 
 def test_missing_weights_stop_before_any_work(tmp_path: Path) -> None:

@@ -6,7 +6,12 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -136,3 +141,43 @@ def test_words_get_speed_peaks_and_evaluation_ratios(bench_run: tuple) -> None:
 def test_columns_absent_from_every_row_are_left_out() -> None:
     rows = [{"item": "a", "source": "a", "status": "ok", "moves": 3, "iou": 0.5, "other": 2.0}]
     assert bm.numeric_keys(rows) == ["moves", "iou", "other"]
+
+
+def test_an_out_that_holds_files_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "mine.txt").write_text("keep me")
+    with pytest.raises(SpecError, match="already holds files"):
+        bm.run_benchmark(["text:hi"], tmp_path, steps=2, size=64)
+    assert [p.name for p in tmp_path.iterdir()] == ["mine.txt"]
+
+
+def _interruptible() -> None:
+    """Give the child Ctrl-C back: a shell's background job (``cmd &``, as CI may run the
+    tests) ignores SIGINT, and a Python started so never turns it into KeyboardInterrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT")
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_ctrl_c_leaves_nothing(tmp_path: Path, jobs: str) -> None:
+    """SIGINT to the command's process group (what Ctrl-C in a terminal sends) while an
+    item is being fitted: no output folder, no staging folder, not even the parents the
+    run created, and the command says so."""
+    out = tmp_path / "a" / "b" / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inkmotion", "benchmark", "text:hi", "text:ok", "text:abc",
+         "--jobs", jobs, "--steps", "5000", "--size", "96", "--out", str(out)],
+        start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_interruptible)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp_path.glob("a/b/out.partial-*/*.partial-*")):  # a fit has begun
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.1)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    assert f"interrupted; nothing was written to {out}" in err
+    assert list(tmp_path.iterdir()) == []

@@ -56,7 +56,8 @@ class StoreProgressObserver:
         try:
             values = state.loss_values()  # one device read, every min_interval seconds
             ok = update_progress(self.job_id, state.step, state.total, values,
-                                 float(state.t_end), db_url=self.db_url, owner=self.owner,
+                                 None if state.t_end is None else float(state.t_end),
+                                 db_url=self.db_url, owner=self.owner,
                                  lease_s=self.lease_s)
             if not ok:
                 record = get_job(self.job_id, self.db_url)

@@ -1,1 +1,2 @@
-"""Micro-benchmarks of the project's hot paths, each against the shared baseline when present."""
+"""Benchmarks of the project's hot paths and services (``inkmotion bench``); each figure's
+unit, meaning and target are in :mod:`inkmotion.benchmarks.figures`."""

@@ -7,20 +7,25 @@ from pathlib import Path
 
 from inkmotion.jobs.spec import JobSpec
 
-
-def shared_dir() -> Path:
-    """The ``shared/`` folder beside the repository (sample data, baselines), if any."""
-    import os
-
-    env = os.environ.get("INKMOTION_SHARED_DIR")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2].parent / "shared"
+#: the fit benchmark's input: a real recorded tag shipped with the package
+DEFAULT_SAMPLE = "tempt-1"
+#: the input when the samples are not installed
+FALLBACK_INPUT = "text:inkmotion"
 
 
 def default_fit_input() -> str:
-    tag = shared_dir() / "data" / "gml" / "49867.json"
-    return str(tag) if tag.is_file() else "text:inkmotion"
+    """``sample:tempt-1`` (a recorded graffiti tag shipped with inkmotion, see
+    ``inkmotion samples``), or ``text:inkmotion`` where that sample cannot be read (an
+    installation without the samples)."""
+    from inkmotion.errors import InkmotionError
+    from inkmotion.kinds.read import read_input
+
+    source = f"sample:{DEFAULT_SAMPLE}"
+    try:
+        read_input(source)
+    except InkmotionError:
+        return FALLBACK_INPUT
+    return source
 
 
 def bench_fit(input: str | None = None, steps: int = 300, size: int = 350,

@@ -23,6 +23,10 @@ Items run in worker processes ('spawn': torch and fork do not mix), each with
 max(1, cores // jobs) torch threads (capped like a single job's default). A failing item
 becomes a row holding its one-sentence error; the others go on. Nothing heavy is imported
 at module level, so the command line can import this module cheaply.
+
+The output folder is staged (``DIR.partial-*``) and moved into place once the summaries
+are written: an interrupted benchmark (Ctrl-C) stops its workers and leaves nothing, not
+even the parent folders it created, and a folder that exists is always a complete run.
 """
 
 from __future__ import annotations
@@ -34,8 +38,9 @@ import os
 import re
 import statistics
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -297,8 +302,12 @@ def _row(row: dict[str, Any], folder: Path, outcome: Any, started: float) -> dic
 
 
 def _init_worker(threads: int) -> None:
-    """Worker start-up: the job shell reads its torch thread count from INKMOTION_THREADS."""
+    """Worker start-up: the job shell reads its torch thread count from INKMOTION_THREADS;
+    Ctrl-C is the parent's to handle (it stops the workers, then removes the output)."""
+    import signal
+
     os.environ["INKMOTION_THREADS"] = str(threads)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 # ----------------------------------------------------------------------------- the run
@@ -316,13 +325,16 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     (:func:`run_items`), the batches taking the items in order.
 
     Raises :class:`~inkmotion.errors.InkmotionError` for a bad call (no inputs, an empty
-    folder, an invalid parameter) before anything runs; a failing item is a row instead.
+    folder, an invalid parameter, an ``out`` that already holds files) before anything
+    runs; a failing item is a row instead. ``out`` appears only once complete (module
+    docstring).
     """
     from rich.console import Console
 
     from inkmotion.devices import threads_per_job
     from inkmotion.jobs.kind import resolve
     from inkmotion.jobs.spec import JobSpec
+    from inkmotion.outputs import StagingDir
 
     console = console or Console()
     sources = expand_inputs(inputs)
@@ -339,17 +351,39 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     jobs = min(jobs, math.ceil(len(sources) / batch))
     threads = threads_per_job(jobs)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_out(out)
+    created = [p for p in (out, *out.parents) if not p.exists()][1:]  # made by staging
     started = time.perf_counter()
-    tasks = [(s, str(out / n), spec.to_dict()) for s, n in zip(sources, names, strict=True)]
-    rows = _run_all(tasks, jobs, threads, console, batch)
-    summary = summarise(rows, wall_s=time.perf_counter() - started)
-    summary["settings"] = {"inputs": list(inputs), "jobs": jobs, "batch": batch,
-                           "threads_per_job": threads,
-                           "spec": spec.to_dict() | {"inputs": {}}}
-    write_summary(out, summary)
+    try:
+        with StagingDir(out) as staging:
+            assert staging.path is not None
+            tasks = [(s, str(staging.path / n), spec.to_dict())
+                     for s, n in zip(sources, names, strict=True)]
+            rows = _run_all(tasks, jobs, threads, console, batch)
+            summary = summarise(rows, wall_s=time.perf_counter() - started)
+            summary["settings"] = {"inputs": list(inputs), "jobs": jobs, "batch": batch,
+                                   "threads_per_job": threads,
+                                   "spec": spec.to_dict() | {"inputs": {}}}
+            write_summary(staging.path, summary)
+    except BaseException:
+        for folder in created:  # closest first; one that holds something else stays
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
     print_aggregate(summary, console)
     return summary
+
+
+def check_out(out: Path) -> None:
+    """Refuse an ``out`` that is a file or a folder holding anything (the run would
+    replace it): one sentence naming it."""
+    if out.exists() and not out.is_dir():
+        raise SpecError(f"--out {out} is a file; give a folder for the benchmark.")
+    if out.is_dir() and any(out.iterdir()):
+        raise SpecError(f"--out {out} already holds files; give a new or empty folder, so "
+                        "nothing in it is replaced.")
 
 
 def _run_all(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,
@@ -412,7 +446,7 @@ def _run_parallel(tasks: list[tuple[str, str, dict]], chunks: list[list[int]], j
 
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(jobs, mp_context=context, initializer=_init_worker,
-                             initargs=(threads,)) as pool:
+                             initargs=(threads,)) as pool, _stopped_on_interrupt(pool):
         futures = {pool.submit(run_items, [tasks[i] for i in chunk]): chunk for chunk in chunks}
         for future in as_completed(futures):
             chunk = futures[future]
@@ -425,6 +459,22 @@ def _run_parallel(tasks: list[tuple[str, str, dict]], chunks: list[list[int]], j
                         for i in chunk]
             for i, row in zip(chunk, rows, strict=True):
                 done(i, row)
+
+
+@contextmanager
+def _stopped_on_interrupt(pool: ProcessPoolExecutor) -> Iterator[None]:
+    """On Ctrl-C (or any error) in the block: cancel the items not started and stop the
+    workers, waiting until they are gone (nothing writes into the output after this)."""
+    try:
+        yield
+    except BaseException:
+        processes = list((getattr(pool, "_processes", None) or {}).values())  # shutdown
+        pool.shutdown(wait=False, cancel_futures=True)  # forgets them
+        for process in processes:
+            process.terminate()
+        for process in processes:
+            process.join()
+        raise
 
 
 # ----------------------------------------------------------------------------- summary

@@ -1,24 +1,21 @@
-"""Benchmark of the 'raster' renderer against the naive tiled baseline in ``shared/bench``.
+"""Benchmark of the 'raster' renderer against the project's dense baseline.
 
 Scene: 750 cubic segments (Hermite → Bézier) of a smooth random Lissajous-like scribble on a
 350×350 canvas, stroke width 3 px, segments about 4 px long. Timed: forward + backward of
 sum(image · fixed random weights) w.r.t. control points and widths, median over repeats.
-The baseline is imported from its file (never copied): ``$INKMOTION_SHARED_DIR/bench`` or the
-repository's sibling ``shared/bench``; it runs on the CPU only (it makes CPU tensors).
+The baseline is :func:`inkmotion.benchmarks.dense_raster.render_dense`, written for this
+benchmark: the same image, every piece measured against every pixel (no tiles, no
+patches); it runs in the same process, on the same device, right after the renderer.
 The project renderer runs as in a fit (:class:`RasterSession`): sized per call on the CPU,
 static shapes elsewhere.
 """
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import os
 import statistics
 import time
 from collections.abc import Callable
-from pathlib import Path
-from types import ModuleType
 
 import torch
 
@@ -50,30 +47,10 @@ def scribble_segments(n: int = SEGMENTS, size: int = CANVAS, seed: int = 0) -> t
     return seg.float()
 
 
-def _shared_bench_dir() -> Path:
-    env = os.environ.get("INKMOTION_SHARED_DIR")
-    if env:
-        return Path(env) / "bench"
-    repo = Path(__file__).resolve().parents[2]
-    return (repo / ".." / "shared" / "bench").resolve()
-
-
-def load_naive_baseline() -> ModuleType | None:
-    """The baseline module ``naive_raster`` imported from its file, or None when absent."""
-    path = _shared_bench_dir() / "naive_raster.py"
-    if not path.is_file():
-        return None
-    spec = importlib.util.spec_from_file_location("inkmotion_bench_naive_raster", path)
-    if spec is None or spec.loader is None:
-        return None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def _time_forward_backward(render: Callable[..., torch.Tensor], seg: torch.Tensor,
-                           widths: torch.Tensor, repeats: int) -> float:
-    """Median milliseconds of render + backward of sum(image · weights), on seg's device."""
+                           widths: torch.Tensor, repeats: int, warm_up: int = 3) -> float:
+    """Median milliseconds of render + backward of sum(image · weights), on seg's device,
+    after ``warm_up`` untimed calls."""
     device = seg.device
     weights = torch.rand(CANVAS, CANVAS, generator=torch.Generator().manual_seed(1)).to(device)
 
@@ -82,7 +59,7 @@ def _time_forward_backward(render: Callable[..., torch.Tensor], seg: torch.Tenso
         w = widths.clone().requires_grad_(True)
         (render(s, w, CANVAS, CANVAS) * weights).sum().backward()
 
-    for _ in range(3):  # warm-up (and the session's planning call)
+    for _ in range(warm_up):  # warm-up (and the session's planning call)
         step()
     times = []
     for _ in range(repeats):
@@ -104,19 +81,20 @@ def raster_host_syncs(render: Callable[..., torch.Tensor], seg: torch.Tensor,
     return log.count
 
 
-def bench_raster(repeats: int = 20, device: torch.device | str = "cpu") -> dict[str, float]:
+def bench_raster(repeats: int = 20, device: torch.device | str = "cpu",
+                 naive_repeats: int = 3) -> dict[str, float]:
     """Forward+backward median ms of the project renderer (as a fit runs it on ``device``)
-    and of the naive baseline (CPU only, same run) at 350×350, 750 segments, width 3 px:
-    {"raster_ms", "naive_ms", "speedup", "raster_host_syncs"} (nan where absent)."""
+    and of the dense baseline (same run, same device; ``naive_repeats``: it is slow) at
+    350×350, 750 segments, width 3 px: {"raster_ms", "naive_ms", "speedup",
+    "raster_host_syncs"}."""
+    from inkmotion.benchmarks.dense_raster import render_dense
+
     device = torch.device(device)
     seg = scribble_segments().to(device)
     widths = torch.full((SEGMENTS,), STROKE_WIDTH, device=device)
     session = RasterSession(static=device.type != "cpu")
     raster_ms = _time_forward_backward(session, seg, widths, repeats)
-    naive = load_naive_baseline() if device.type == "cpu" else None
-    naive_ms = math.nan
-    if naive is not None:
-        naive_ms = _time_forward_backward(naive.render, seg, widths, repeats)
+    naive_ms = _time_forward_backward(render_dense, seg, widths, naive_repeats, warm_up=1)
     return {"raster_ms": raster_ms, "naive_ms": naive_ms, "speedup": naive_ms / raster_ms,
             "raster_host_syncs": raster_host_syncs(session, seg, widths)}
 

@@ -74,8 +74,8 @@ def bench_recording(input: str | None = None, steps: int = 60, size: int = 350,
 
     Off and on runs alternate ``repeats`` times and the best of each is kept, which damps
     noise from other processes on the machine. ``input`` defaults to the fit benchmark's
-    (a real recorded tag when the development data sits beside the repository, else a
-    word). ``recording_own_ms`` is the time per step
+    (:func:`inkmotion.benchmarks.fit.default_fit_input`: a shipped sample tag).
+    ``recording_own_ms`` is the time per step
     spent inside the recorder itself (a steadier figure than the difference of two walls).
     """
     from inkmotion.benchmarks.fit import default_fit_input

@@ -1,28 +1,18 @@
-"""``inkmotion bench``: run the benchmarks and print their figures with the targets."""
+"""``inkmotion bench``: run the benchmarks and print their figures, each with its unit,
+its target in words (met, or missed by how much) and a legend that says what it is
+(:mod:`inkmotion.benchmarks.figures`)."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import torch
 from rich.console import Console
 from rich.table import Table
 
-#: figure -> (target, comparison) for the issue's acceptance targets
-TARGETS: dict[str, tuple[float, str]] = {
-    "kinematics_m150_ms": (10.0, "≤"),
-    "kinematics_ratio_2000_500": (6.0, "≤"),
-    "raster_ms": (60.0, "≤"),
-    "spray_host_syncs": (0, "≤"),
-    "speedup": (3.0, "≥"),
-    "fit_wall_s": (30.0, "≤"),
-    "recording_ratio": (1.1, "≤"),
-    "tag_300_steps_s": (30.0, "≤"),  # the issue's goal on a CUDA GPU
-    "queue_lost": (0, "≤"),
-    "pair_over_alone": (1.3, "≤"),
-    "queue_completed_twice": (0, "≤"),
-}
+from inkmotion.benchmarks.figures import TARGETS, describe, show_value, verdict
+
+__all__ = ["DEFAULT_BENCHES", "TARGETS", "print_figures", "run_benchmarks"]
 
 #: run when no ``--only`` is given; the others run only when named (queue: it starts
 #: redis-server and worker subprocesses, a few minutes; generation: CLIP ViT-B-32 jobs)
@@ -106,7 +96,7 @@ def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
                    threads: int = 2, console: Console | None = None,
                    device: str = "cpu") -> dict:
     """Run the chosen benchmarks (:data:`DEFAULT_BENCHES` by default) on ``device`` with
-    ``threads`` torch threads; print a table of figure, value and target; return them."""
+    ``threads`` torch threads; print them (:func:`print_figures`) and return them."""
     import os
 
     from inkmotion.devices import resolve_device
@@ -137,16 +127,30 @@ def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
             os.environ.pop("INKMOTION_THREADS", None)
         else:
             os.environ["INKMOTION_THREADS"] = previous_env
-    table = Table("figure", "value", "target",
-                  title=f"inkmotion bench ({device}, {threads} CPU threads)")
-    for key, value in figures.items():
-        target = TARGETS.get(key)
-        shown = f"{value:.3f}" if isinstance(value, float) and math.isfinite(value) else str(value)
-        if target is None:
-            table.add_row(key, shown, "")
-            continue
-        bound, cmp = target
-        ok = value <= bound if cmp == "≤" else value >= bound
-        table.add_row(key, shown, f"[{'green' if ok else 'red'}]{cmp} {bound}[/]")
-    console.print(table)
+    print_figures(figures, console, f"inkmotion bench ({device}, {threads} CPU threads)")
     return figures
+
+
+def print_figures(figures: dict, console: Console, title: str) -> None:
+    """The table (figure, value with its unit, target and whether it was met, in words and
+    in colour), then what each figure is, one line each."""
+    table = Table("figure", "value", "target", title=title)
+    legend = []
+    for key, value in figures.items():
+        unit, what = describe(key)
+        target = TARGETS.get(key)
+        words = ""
+        if target is not None:
+            met, words = verdict(value, *target, unit)
+            words = f"[{'green' if met else 'red'}]{words}[/]"
+        table.add_row(key, show_value(value, unit), words)
+        legend.append((key, what))
+    console.print(table)
+    if legend:
+        console.print("What the figures are:", highlight=False)
+        grid = Table.grid(padding=(0, 1))
+        grid.add_column(no_wrap=True, style="bold")
+        grid.add_column()
+        for key, what in legend:
+            grid.add_row(f"  {key}", what)
+        console.print(grid, highlight=False)

@@ -70,21 +70,23 @@ def plugins_cmd(
 def bench_cmd(
     only: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
         "--only",
-        help="Run only these: kinematics, raster, spray, fit, recording (the default set), "
-             "queue (opt-in: starts a local redis-server and 2 workers), generation "
-             "(opt-in: CLIP tag and abstract seconds per step), gallery (opt-in: build "
-             "the gallery of 100 jobs, rebuild it after one more) or throughput (opt-in, "
-             "minutes: default fits per minute for 1, 2, 4 jobs side by side and "
-             "batches of 1, 4, 16).")] = None,
+        help="Run only these (repeatable): kinematics, raster, spray, fit, recording (the "
+             "default set); opt-in: queue (fit jobs through a local redis-server and "
+             "Celery workers), generation (CLIP tag and abstract, seconds per step), "
+             "gallery (build a gallery of 100 jobs, rebuild it), throughput (minutes: "
+             "fits per minute side by side and batched), tsp (the tour solvers).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
-        help="Input of the fit benchmark (default: the development tag 49867.json "
-             "when it sits beside the repository, else text:inkmotion).")
-    ] = None,
+        help="Input of the fit benchmark (default: sample:tempt-1, a recorded tag shipped "
+             "with inkmotion).")] = None,
     threads: Annotated[int, typer.Option(help="torch threads (the targets assume 2).")] = 2,
     device: Annotated[str, typer.Option(
         help="cpu, cuda or auto: where kinematics, raster and fit run.")] = "cpu",
 ) -> None:
-    """Print speed figures (kinematics, raster, a full fit, recording overhead).
+    """Print speed figures: kinematics, renderers, a full fit, the recording's cost.
+
+    Each figure is printed with its unit, its target (met, or missed by how much) and a
+    line saying what it measures. The raster renderer is timed against a dense baseline
+    of the project's own (every piece against every pixel).
 
     Examples:
 
@@ -92,13 +94,11 @@ def bench_cmd(
 
       inkmotion bench --only kinematics --only raster
 
+      inkmotion bench --only fit --fit-input sample:tempt-2
+
       inkmotion bench --only queue
 
-      inkmotion bench --only gallery
-
       inkmotion bench --only generation --device cuda
-
-      inkmotion bench --device cuda
     """
     from inkmotion.benchmarks.suite import run_benchmarks
 

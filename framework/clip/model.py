@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import logging
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,8 +46,6 @@ from inkmotion.errors import InputError, SpecError
 
 __all__ = ["AUTO", "DEFAULT_MODEL", "DEFAULT_PRETRAINED", "RANDOM", "LoadedClip",
            "clear_cache", "download_weights", "load_clip", "weights_problem"]
-
-log = logging.getLogger(__name__)
 
 #: CLIP's (OpenAI's) normalisation, the fallback when neither the tag nor the config has one
 OPENAI_MEAN = (0.48145466, 0.4578275, 0.40821073)
@@ -174,9 +173,8 @@ def load_clip(model: str = DEFAULT_MODEL, pretrained: str = DEFAULT_PRETRAINED,
     except WeightsProblem as exc:
         raise SpecError(str(exc)) from None
     net = _build(found.name, found.checkpoint, bool(found.tag_cfg.get("quick_gelu", False)))
-    if found.checkpoint is None:
+    if found.checkpoint is None:  # said once, here (open_clip's own notice is held back)
         warnings.warn(RANDOM_WARNING, stacklevel=2)
-        log.warning(RANDOM_WARNING)
     net = net.to(device).eval().requires_grad_(False)
     preprocess = getattr(net.visual, "preprocess_cfg", None) or {}
     mean = found.tag_cfg.get("mean") or preprocess.get("mean") or OPENAI_MEAN
@@ -193,7 +191,7 @@ def _build(name: str, checkpoint: Path | None, quick_gelu: bool) -> Any:
     """open_clip.create_model on the CPU under a fixed seed; load errors as one sentence."""
     import open_clip
 
-    with torch.random.fork_rng(devices=[]):
+    with torch.random.fork_rng(devices=[]), _without_random_notice():
         torch.manual_seed(0)
         try:
             return open_clip.create_model(
@@ -208,6 +206,42 @@ def _build(name: str, checkpoint: Path | None, quick_gelu: bool) -> Any:
                                  "or the matching --clip-model.") from None
             raise SpecError(f"The CLIP model {name} could not be built ({reason}); check its "
                             "model config.") from None
+
+
+#: how open_clip's notice of a randomly initialised model begins
+_OPEN_CLIP_NOTICE = "No pretrained weights loaded"
+
+
+class _LastResort(logging.Handler):
+    """What logging does with a record when no handler is configured (its last resort)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        last = logging.lastResort
+        if last is not None and record.levelno >= last.level:
+            last.handle(record)
+
+
+@contextmanager
+def _without_random_notice() -> Iterator[None]:
+    """Hold back open_clip's "No pretrained weights loaded ..." line: it goes to the root
+    logger (and configures it with a handler to stderr when it has none), while
+    :func:`load_clip` warns of random weights itself, once. Other records pass."""
+    root = logging.getLogger()
+    placeholder = None
+    if not root.handlers:  # so logging.warning() does not install a stderr handler
+        placeholder = _LastResort()
+        root.addHandler(placeholder)
+
+    def keep(record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith(_OPEN_CLIP_NOTICE)
+
+    root.addFilter(keep)
+    try:
+        yield
+    finally:
+        root.removeFilter(keep)
+        if placeholder is not None:
+            root.removeHandler(placeholder)
 
 
 def _first_line(exc: Exception) -> str:

@@ -42,7 +42,8 @@ from inkmotion.gallery.relations import Relations, relate
 MANIFEST = "manifest.json"
 THUMB_WIDTH = 360  # px, the card's thumbnail (twice its CSS width for sharp screens)
 ASSETS = "inkmotion.gallery_assets"  # the gallery/ folder: templates/ and static/
-WIDE_FIGURES = frozenset({"speed.png", "speeds.png", "human_speeds.png", "side_by_side.png"})
+WIDE_FIGURES = frozenset({"speed.png", "speeds.png", "human_speeds.png", "side_by_side.png",
+                          "feed.png"})
 
 
 @dataclass
@@ -76,8 +77,7 @@ def _environment(templates: Path | None) -> Any:
                              autoescape=jinja2.select_autoescape(["html", "j2"]),
                              undefined=jinja2.StrictUndefined, trim_blocks=True,
                              lstrip_blocks=True, keep_trailing_newline=True)
-    env.filters.update(show=summary.show, duration=summary.duration, size=summary.size,
-                       figure_name=summary.figure_name)
+    env.filters.update(show=summary.show, duration=summary.duration, size=summary.size)
     return env
 
 
@@ -163,7 +163,8 @@ def _csv_table(path: Path) -> tuple[list[str], list[list[str]]] | None:
         except ValueError:
             return text
 
-    return rows[0], [[cell(c) for c in row] for row in rows[1:]]
+    header = [summary.EVALUATION_COLUMNS.get(h, h) for h in rows[0]]
+    return header, [[cell(c) for c in row] for row in rows[1:]]
 
 
 def _commands(entry: Entry, page_dir: Path) -> dict[str, str]:
@@ -205,10 +206,11 @@ def _downloads(entry: Entry, files_dir: Path) -> list[tuple[str, str]]:
 def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str, Any]:
     """What the index needs of a job (kept in the manifest, so an unchanged job's card is
     drawn without reading its files again); ``params``: its key parameters."""
-    names = [k for k in CARD_METRICS if k in entry.metrics and k != "t_end_ratio"]
+    names = [k for k in CARD_METRICS.get(entry.kind, ()) if k in entry.metrics]
     if not names:  # another kind (a plugin's): its own first three figures
-        names = [k for k, v in entry.metrics.items() if isinstance(v, (int, float))][:3]
-    metrics = [(k, summary.show(entry.metrics[k])) for k in names]
+        names = [k for k, v in entry.metrics.items()
+                 if isinstance(v, (int, float)) and not isinstance(v, bool)][:3]
+    metrics = [summary.figure(k, entry.metrics[k], entry.kind) for k in names]
     poor = entry.metrics.get("quality") == "poor"
     search = " ".join([entry.id, entry.kind, entry.status, entry.label, *(["poor"] * poor),
                        *(f"{k}={v}" for k, v in params)]).lower()
@@ -217,7 +219,6 @@ def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str,
             "created": entry.created.isoformat(timespec="seconds") if entry.created else "",
             "created_shown": entry.created.strftime("%Y-%m-%d %H:%M") if entry.created else "",
             "duration": summary.duration(entry.duration_s),
-            "t_end": summary.show(entry.t_end_ratio) if entry.t_end_ratio is not None else None,
             "metrics": metrics, "params": params[:6], "more_params": max(0, len(params) - 6),
             "thumb": f"jobs/{entry.id}/thumb.png" if thumb else None,
             "progress": list(entry.progress) if entry.progress else None,
@@ -272,15 +273,15 @@ def _build_job(entry: Entry, out: Path, env: Any,
             figures=_figures(entry), downloads=_downloads(entry, files_dir),
             commands=_commands(entry, final),
             evaluation=evaluation, related=related,
-            metrics=[(k, summary.show(v)) for k, v in entry.metrics.items()],
-            params=[(k, summary.show(v)) for k, v in summary.flatten(entry.params).items()],
+            metrics=[summary.figure(k, v, entry.kind) for k, v in entry.metrics.items()],
+            params=summary.parameter_rows(entry.kind, entry.params),
             changed={k for k, _ in key_params},
             wide=WIDE_FIGURES,
             stages=entry.report.get("stages") if isinstance(entry.report.get("stages"), list)
             else None,
             warnings=[str(w) for w in entry.report.get("warnings") or []
                       if isinstance(entry.report.get("warnings"), list)],
-            report=[(k, summary.show(v)) for k, v in entry.report.items()
+            report=[summary.figure(k, v, entry.kind) for k, v in entry.report.items()
                     if isinstance(v, (int, float, str, bool)) and k not in entry.metrics])
         (stage.path / "index.html").write_text(page, encoding="utf-8")
     return card

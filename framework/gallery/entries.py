@@ -42,12 +42,24 @@ FIGURES: tuple[tuple[str, str], ...] = (
     ("init.png", "The initial motor plan"),
     ("saliency.png", "Saliency"),
     ("photo.png", "The input photo"),
+    ("plot_preview.png", "The plot on its paper: pen-down strokes and pen-up travel"),
+    ("feed.png", "The plotter's feed along the strokes, beside the ΣΛ speed"),
 )
 #: files a reader downloads first, in this order; every other artifact follows by name
 DOWNLOADS = ("drawing.svg", "plan.json", "trajectory.csv", "recording.rrd", "job.json",
              "report.json")
-#: figures shown on a card beside the metrics, when the job reports them
-CARD_METRICS = ("moves", "chamfer_mean_px", "chamfer_max_px", "t_end_ratio")
+#: the figures a card shows, per kind, when the job reports them (another kind: its own
+#: first three); the job's page shows them all
+CARD_METRICS: dict[str, tuple[str, ...]] = {
+    "fit": ("t_end_ratio", "moves", "chamfer_mean_px", "chamfer_max_px"),
+    "tag": ("t_end_ratio", "moves", "clip_similarity"),
+    "abstract": ("t_end_ratio", "moves", "clip_similarity"),
+    "simulate": ("duration_s", "tracking_down_plane_rms_mm", "contact_coverage"),
+    "draw": ("duration_s", "tracking_down_plane_rms_mm", "flange_max_mm"),
+    "plot": ("estimated_s", "peak_feed", "travel_mm"),
+    "evaluate": ("minimum-jerk_msj_ratio", "minimum-jerk_ldj_ratio",
+                 "time-optimal_duration_ratio"),
+}
 
 
 @dataclass

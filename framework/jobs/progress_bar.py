@@ -1,46 +1,66 @@
 """The terminal progress bar of ``inkmotion run``, an observer like the others.
 
-The bar advances every step; the loss terms and T_end shown beside it are read from the
-device only every ``refresh_s`` seconds, so the bar costs no GPU synchronisation on most
-steps. Written to stderr, so stdout stays clean for scripts.
+Beside the step count the bar shows what the kind says of the step
+(:meth:`inkmotion.events.StepState.shown`): an optimisation's total loss, T_end and loss
+terms, or another kind's own figures (simulate: the stage and the drawing's duration;
+evaluate: the path and the timing being computed; ...). Values still on the device (0-d
+tensors) are read only every ``refresh_s`` seconds, in one transfer, so the bar costs no
+GPU synchronisation on most steps; plain numbers and texts are shown at every step. The
+bar is cleared once the last step is done, before the kind or the command prints its
+results. Written to stderr, so stdout stays clean for scripts.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 
 from inkmotion.events import RunContext, StepState, scalars
 
+#: count, a short bar, elapsed<remaining, then the kind's figures: at 80 columns most of
+#: the line is left to the figures (tqdm cuts the line at the terminal's width)
+BAR_FORMAT = "{desc}: {n_fmt}/{total_fmt} {bar:10} {elapsed}<{remaining}{postfix}"
+
+
+def format_figures(values: dict[str, Any]) -> str:
+    """``name=value, ...``: texts as they are, numbers (and 0-d tensors, read here in one
+    transfer) to 4 significant digits."""
+    numbers = scalars({k: v for k, v in values.items() if not isinstance(v, str)})
+    return ", ".join(f"{k}={v}" if isinstance(v, str) else f"{k}={numbers[k]:.4g}"
+                     for k, v in values.items())
+
 
 class ProgressBar:
-    """A tqdm bar over the job's steps, showing the loss terms and T_end."""
+    """A tqdm bar over the job's steps, showing what the kind reports of each step."""
 
     def __init__(self, desc: str = "", refresh_s: float = 0.5) -> None:
         self.desc = desc
         self.refresh_s = refresh_s
         self._bar: Any = None
-        self._shown = 0.0
+        self._shown = -math.inf  # the first step is shown
 
     def on_start(self, ctx: RunContext) -> None:
         from tqdm.auto import tqdm
 
         self._bar = tqdm(total=ctx.total_steps, desc=self.desc or ctx.spec.kind, unit="step",
-                         dynamic_ncols=True, leave=False)
+                         dynamic_ncols=True, leave=False, bar_format=BAR_FORMAT)
 
     def on_step(self, state: StepState) -> None:
         if self._bar is None:
             return
         if state.total and state.total != self._bar.total:  # a kind that counts as it goes
             self._bar.total = state.total
+        last = bool(state.total) and state.step >= state.total
+        values = state.shown()
+        on_host = not any(hasattr(v, "detach") for v in values.values())  # free to read
         now = time.monotonic()
-        if now - self._shown >= self.refresh_s or state.step == state.total:
+        if on_host or last or now - self._shown >= self.refresh_s:
             self._shown = now
-            values = scalars({**state.losses, "T_end": state.t_end})
-            shown = {k: f"{v:.4g}" for k, v in values.items() if k not in ("total", "T_end")}
-            shown["T_end"] = f"{values['T_end']:.3g}"
-            self._bar.set_postfix(shown, refresh=False)
-        self._bar.update(1)
+            self._bar.set_postfix_str(format_figures(values), refresh=False)
+        self._bar.update(max(0, state.step - self._bar.n))  # a resumed job starts past 0
+        if last:  # nothing more to show: clear the line before any result is printed
+            self.close()
 
     def on_end(self, report: dict) -> None:
         self.close()

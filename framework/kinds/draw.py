@@ -37,6 +37,9 @@ if TYPE_CHECKING:
 #: m: an executed pen tip this close to the plane counts as drawing (robot_drawing.png)
 DRAWN_GAP = 0.001
 STEPS = 6
+#: the stage that follows each step, as the progress bar names it
+NEXT = {1: "timing", 2: "joint trajectory", 3: "checks and approach", 4: "drawing",
+        5: "record"}
 
 
 def run_draw(job: Job) -> dict[str, Any]:
@@ -51,7 +54,9 @@ def run_draw(job: Job) -> dict[str, Any]:
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
 
     def stage(step: int, figures: dict[str, float]) -> None:
-        job.observers.on_step(StepState(step, STEPS, figures, 0.0))
+        """Stage ``step`` is done; the bar shows its ``figures`` and the stage that runs now."""
+        now = {"now": NEXT[step]} if step in NEXT else {}
+        job.observers.on_step(StepState(step, STEPS, {}, None, figures={**now, **figures}))
 
     with franka.scheduling_kept():  # libfranka leaves this thread at SCHED_FIFO 99
         robot = franka.connect(p.robot, realtime=p.realtime == "enforce")

@@ -1,6 +1,8 @@
-"""The 'evaluate' job kind's work: read the plan, compare the timings of each path (the
-engine, :mod:`inkmotion.evaluation.comparison`), and write evaluation.json, evaluation.csv,
-the plots (speeds.png, minima.png, human_speeds.png with a recording) and the report.
+"""The 'evaluate' job kind's work: read the plan (and the recording, so a bad one is
+refused before any timing runs), compare the timings of each path (the engine,
+:mod:`inkmotion.evaluation.comparison`), and write evaluation.json, evaluation.csv, the
+plots (speeds.png, minima.png, human_speeds.png with a recording) and the report. The
+progress bar shows the path and the timing being computed.
 """
 
 from __future__ import annotations
@@ -29,7 +31,9 @@ def run_evaluate(job: Job) -> dict[str, Any]:
         paper_scale,
         ratios_and_directions,
     )
+    from inkmotion.evaluation.human import human_agreement_of_traces
     from inkmotion.evaluation.plots import plot_minima, plot_speeds
+    from inkmotion.kinds.read import read_input
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
@@ -37,14 +41,21 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     scale = paper_scale(drawing.canvas, p.setup)
     indices = list(range(len(drawing.plans))) if p.path < 0 else [choose_path(drawing, p.path)]
     shown = choose_path(drawing, p.path)  # the longest, or the one asked for: the plots
+    recording = read_input(p.recording) if p.recording else None  # refused before the work
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
-    n = len(METHODS)
+    n, count = len(METHODS), len(indices)
+
+    def timed(j: int, k: int) -> None:
+        """Timing k of path j is done: the bar says which path and which timing runs now."""
+        at, now = (j, METHODS[k]) if k < n else (j + 1, METHODS[0])
+        figures = {"path": f"{min(at, count - 1) + 1}/{count}",
+                   "now": now if at < count else "plots"}
+        job.observers.on_step(StepState(j * n + k, n * count, {}, None, figures=figures))
+
     per_path: dict[int, Comparison] = {}
     for j, index in enumerate(indices):
-        per_path[index] = compare(
-            drawing.plans[index], p.v_max, p.a_max, scale, p.rate,
-            progress=lambda k, j=j: job.observers.on_step(
-                StepState(j * n + k, n * len(indices), {}, 0.0)))
+        per_path[index] = compare(drawing.plans[index], p.v_max, p.a_max, scale, p.rate,
+                                  progress=lambda k, j=j: timed(j, k))
     table = over_paths(per_path)
     ratios, holds = ratios_and_directions(table)
     sigma = per_path[shown].timed[METHODS[0]]
@@ -61,9 +72,9 @@ def run_evaluate(job: Job) -> dict[str, Any]:
                             "minimum-jerk": "passage times through the via points optimised",
                             "minimum-jerk-sigma-times": "the ΣΛ trajectory's own passage "
                             "times through the same via points"}}
-    if p.recording:
-        doc["human"] = human_agreement_from_files(p.recording, drawing,
-                                                  job.folder / "human_speeds.png")
+    if recording is not None:
+        doc["human"] = human_agreement_of_traces(recording, drawing,
+                                                 job.folder / "human_speeds.png", p.recording)
     (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
     write_csv(job.folder / "evaluation.csv", table, ratios,
               per_path if len(per_path) > 1 else None)

@@ -149,13 +149,20 @@ def check_one_clip(params: GenerationParams) -> None:
 
 def load_job_clip(params: GenerationParams, device: torch.device) -> LoadedClip:
     """The job's CLIP model, after checking its weights exist (one sentence saying how to get
-    them otherwise): this runs first, before any input is read or anything is written."""
-    from inkmotion.clip.model import load_clip, weights_problem
+    them otherwise; no model is built for that). A kind reads and checks its input before
+    (a bad input costs no model). Random weights are not warned of here: the job's report
+    says so, once (:func:`write_generation`)."""
+    import warnings
+
+    from inkmotion.clip.model import RANDOM_WARNING, load_clip, weights_problem
 
     problem = weights_problem(params.clip_model, params.clip_pretrained, params.clip_weights)
     if problem is not None:
         raise SpecError(problem)
-    return load_clip(params.clip_model, params.clip_pretrained, params.clip_weights, device)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=RANDOM_WARNING)
+        return load_clip(params.clip_model, params.clip_pretrained, params.clip_weights,
+                         device)
 
 
 def run_tag(job: Job) -> dict[str, Any]:
@@ -165,10 +172,10 @@ def run_tag(job: Job) -> dict[str, Any]:
     from inkmotion.plugin_host.protocols import JobInputs, Reference
 
     p = job.params
-    clip = load_job_clip(p, job.device)
-    word = job.spec.inputs["word"].strip()
+    word = job.spec.inputs["word"].strip()  # the cheapest check first
     if not word:
         raise SpecError("The tag job needs a word (e.g. inkmotion run tag CREAM).")
+    clip = load_job_clip(p, job.device)  # the weights' files checked, then the model built
     caption = p.caption.replace("{word}", word)
     canvas = (p.size, p.size)
     plans = job.plugin(p.initialiser)(
@@ -191,8 +198,8 @@ def run_abstract(job: Job) -> dict[str, Any]:
     from inkmotion.plugin_host.protocols import JobInputs, Reference
 
     p = job.params
-    clip = load_job_clip(p, job.device)
     photo = load_image(job.spec.inputs["image"], p.size, device=job.device)  # (3, H, W)
+    clip = load_job_clip(p, job.device)  # after the photo: a bad file costs no model
     canvas = (int(photo.shape[2]), int(photo.shape[1]))
     caption = p.caption or None
     reference = Reference(image=photo, caption=caption, extra={"clip": clip})
@@ -288,6 +295,10 @@ def write_generation(job: Job, staged: StagedFit, init: list[MotorPlan],
     score0 = clip_similarity(clip, init_rendered.to(clip.device), caption, photo_on)
     score1 = clip_similarity(clip, rendered.to(clip.device), caption, photo_on)
     report["metrics"]["clip_similarity"] = score1
+    if clip.weights == "random":  # the one place the user is told
+        from inkmotion.clip.model import RANDOM_WARNING
+
+        report["warnings"] = [RANDOM_WARNING, *(report.get("warnings") or [])]
     report.update(varying_width=bool(p.varying_width), clip_model=clip.name,
                   clip_weights=clip.weights, clip_similarity_initial=score0,
                   clip_similarity_final=score1,

@@ -84,7 +84,8 @@ def run_plot(job: Job) -> dict[str, Any]:
     timing = time_for_plotter(drawing, mapping, pens, v_max=v_max, a_max=a_max,
                               accel=machine.max_accel, deviation=machine.junction_deviation,
                               step=p.step, junctions=p.junctions)
-    job.observers.on_step(StepState(1, STEPS, {"time_scale": timing.time_scale}, 0.0))
+    job.observers.on_step(StepState(1, STEPS, {}, None, figures={
+        "now": "stroke order", "time_scale": timing.time_scale}))
 
     strokes = timing.strokes
     starts = np.array([st.points[0] for st in strokes])
@@ -93,7 +94,8 @@ def run_plot(job: Job) -> dict[str, Any]:
     order = optimise_order(starts, ends) if p.order == "optimise" else own
     travel_before = tour_length(own, starts, ends)
     strokes = [strokes[i] for i in order]
-    job.observers.on_step(StepState(2, STEPS, {}, 0.0))
+    job.observers.on_step(StepState(2, STEPS, {}, None, figures={
+        "now": "G-code", "time_scale": timing.time_scale, "strokes": len(strokes)}))
 
     folder = job.folder
     pen_numbers = sorted({st.pen for st in strokes})
@@ -121,7 +123,7 @@ def run_plot(job: Job) -> dict[str, Any]:
                   f"travel {travel_mm / 1e3:.2f} m, peak feed {timing.info['peak_feed']:.1f} "
                   f"mm/s (v-max {v_max:g})")
     write_feed_plot(folder / "feed.png", strokes)
-    job.observers.on_step(StepState(3, STEPS, {"estimated_s": total_s}, 0.0))
+    job.observers.on_step(StepState(3, STEPS, {}, None, figures={"estimated_s": total_s}))
     correlation = feed_correlation(strokes)
     report = {
         "machine": {"name": machine.name, "max_feed": machine.max_feed,

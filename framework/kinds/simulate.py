@@ -2,7 +2,9 @@
 every chosen robot backend.
 
 Stages are reported as steps (1: timing, 2: joint trajectory, then one per backend), so
-the progress bar and the job store follow a long simulation. Everything that can refuse
+the progress bar and the job store follow a long simulation; the bar shows the stage
+running and the figures known so far (the drawing's duration, the tracking error of
+each simulated arm). Everything that can refuse
 the job (setup file, plan file, reachability) runs before any motion is planned in full;
 nothing is written until the plan is known to be feasible. The backends are the job's
 ``robot-backend`` plugins, looked up here and handed the program: the robot engine never
@@ -11,7 +13,6 @@ sees the plugin host.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -62,19 +63,26 @@ def run_simulate(job: Job) -> dict[str, Any]:
     setup = job_setup(p.setup, p.v_max, p.a_max)
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
     total = job.total_steps
+    names = [choice.name for choice in p.backends]
 
-    def stage(step: int, name: str, seconds: float = 0.0) -> None:
-        """Stage ``step`` (``name``: timing, joints or a backend) is done."""
-        job.observers.on_step(StepState(step, total, {"stage_s": seconds}, 0.0))
+    def stage(step: int, figures: dict[str, Any]) -> None:
+        """Stage ``step`` is done (1 timing, 2 joints, then one per backend); ``figures``:
+        what the progress bar shows until the next."""
+        job.observers.on_step(StepState(step, total, {}, None, figures=figures))
 
-    program = plan_program(drawing, setup, on_stage=stage)
+    def planned(step: int, name: str) -> None:
+        if step == 1:  # stage 2 is reported below, with the figures of the planned program
+            stage(1, {"now": "joint trajectory"})
+
+    program = plan_program(drawing, setup, on_stage=planned)
     write_program(job.folder, program)
     report = program_report(program)
     metrics = {"duration_s": report["duration_s"],
                "ik_max_position_error_mm": report["joint_trajectory"]["max_position_error_mm"]}
+    shown: dict[str, Any] = {"duration_s": metrics["duration_s"]}
+    stage(2, {"now": names[0], **shown})
     for i, choice in enumerate(p.backends, start=3):
         backend = job.plugin(choice)
-        started = time.perf_counter()
         figures = backend.execute(program, job.folder, **job.options(choice))
         stream = job.recording_stream()
         replay = getattr(backend, "replay", None)
@@ -83,7 +91,10 @@ def run_simulate(job: Job) -> dict[str, Any]:
         figures = {k: v for k, v in figures.items() if not k.startswith("_")}
         report[choice.name] = figures
         metrics.update(figures.get("metrics", {}))
-        stage(i, choice.name, time.perf_counter() - started)
+        if "tracking_down_plane_rms_mm" in figures:
+            shown["tracking_rms_mm"] = figures["tracking_down_plane_rms_mm"]
+        following = names[i - 2:i - 1]
+        stage(i, {**({"now": following[0]} if following else {}), **shown})
     report["metrics"] = metrics
     return report
 

@@ -176,7 +176,8 @@ class RerunRecorder:
         step = int(state.step)
         for name, value in state.losses.items():  # 0-d tensors: read at flush, in one go
             _add(self._scalars, f"losses/{name}", step, value)
-        _add(self._scalars, "t_end", step, state.t_end)
+        if state.t_end is not None:  # a kind that optimises no motion has none
+            _add(self._scalars, "t_end", step, state.t_end)
         if state.rendered is not None:
             rec.set_time("step", sequence=step)
             rec.log("rendered", rr.Image(_paper(state.rendered)))

@@ -13,13 +13,9 @@ from sqlalchemy import JSON, DateTime, Float, Integer, String, Text, TypeDecorat
 from sqlalchemy.engine import Dialect
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-STATUSES = ("queued", "running", "succeeded", "failed", "cancelled")
-FINAL_STATUSES = ("succeeded", "failed", "cancelled")
+from inkmotion.store.records import FINAL_STATUSES, STATUSES, utcnow
 
-
-def utcnow() -> datetime:
-    return datetime.now(timezone.utc)
-
+__all__ = ["FINAL_STATUSES", "STATUSES", "Base", "Job", "UTCDateTime", "utcnow"]
 
 class UTCDateTime(TypeDecorator):
     """Timezone-aware UTC datetimes on every backend (SQLite stores naive values)."""

@@ -11,65 +11,15 @@ from __future__ import annotations
 import math
 import uuid
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass
-from datetime import datetime, timedelta
+from datetime import timedelta
 from typing import Any
 
 from sqlalchemy import and_, delete, or_, select, update
 from sqlalchemy.orm import Session
 
 from inkmotion.store.db import get_engine
-from inkmotion.store.models import FINAL_STATUSES, STATUSES, Job, utcnow
-
-
-@dataclass(frozen=True)
-class JobRecord:
-    """A snapshot of one job row.
-
-    ``metrics`` holds the job kind's summary figures once it succeeded (``None`` before,
-    and for jobs recorded before revision 0002); it comes last with a default so that
-    code building records by keyword keeps working."""
-
-    id: str
-    kind: str
-    queue: str
-    status: str
-    spec: dict[str, Any]
-    label: str
-    step: int
-    total: int
-    losses: dict[str, float] | None
-    t_end: float | None
-    created_at: datetime
-    started_at: datetime | None
-    finished_at: datetime | None
-    updated_at: datetime
-    worker_host: str | None
-    attempts: int
-    error: str | None
-    artifact_dir: str | None
-    metrics: dict[str, Any] | None = None
-    lease_owner: str | None = None
-    lease_until: datetime | None = None
-
-    @property
-    def finished(self) -> bool:
-        return self.status in FINAL_STATUSES
-
-    @property
-    def stalled(self) -> bool:
-        """Running, but its lease has expired: its worker stopped renewing it (died or was
-        cut off), and a reaper will put it back on the queue."""
-        return (self.status == "running" and self.lease_until is not None
-                and self.lease_until < utcnow())
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict of every field, ``metrics`` included (ISO 8601 timestamps)."""
-        d = asdict(self)
-        for k, v in d.items():
-            if isinstance(v, datetime):
-                d[k] = v.isoformat()
-        return d
+from inkmotion.store.models import Job
+from inkmotion.store.records import JobRecord, check_statuses, utcnow
 
 
 def _record(job: Job) -> JobRecord:
@@ -135,14 +85,7 @@ def list_jobs(status: str | Iterable[str] | None = None, limit: int | None = 50,
     """Jobs, newest first, optionally only those with the given status(es)."""
     q = select(Job).order_by(Job.created_at.desc(), Job.id)
     if status is not None:
-        statuses = [status] if isinstance(status, str) else list(status)
-        unknown = set(statuses) - set(STATUSES)
-        if unknown:
-            from inkmotion.errors import SpecError
-
-            raise SpecError(f"Unknown status {', '.join(sorted(unknown))}; "
-                            f"statuses are {', '.join(STATUSES)}.")
-        q = q.where(Job.status.in_(statuses))
+        q = q.where(Job.status.in_(check_statuses(status)))
     if limit is not None:
         q = q.limit(limit)
     with Session(get_engine(_db_url(db_url))) as s:
