@@ -13,17 +13,19 @@ $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 
+# setuptools says "Editable installation ... folders with the same name as your package" on
+# every editable install of a package-dir layout like ours: a notice, not a problem to fix
 $(VENV)/.installed: pyproject.toml | $(VENV)/bin/python
-	$(PIP) install -q -e .
+	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e .
 	touch $@
 
 # the test extras, and plugins written outside the package (tests/plugin_package, the
 # example of docs/plugins.md in examples/), installed like any third-party plugin so the
 # tests can check they are picked up
 $(VENV)/.installed-test: pyproject.toml tests/plugin_package/pyproject.toml examples/inkmotion-example-plugin/pyproject.toml | $(VENV)/bin/python
-	$(PIP) install -q -e ".[test]"
-	$(PIP) install -q -e tests/plugin_package
-	$(PIP) install -q -e examples/inkmotion-example-plugin
+	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e ".[test]"
+	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e tests/plugin_package
+	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e examples/inkmotion-example-plugin
 	touch $@ $(VENV)/.installed
 
 venv: $(VENV)/.installed

@@ -16,8 +16,9 @@ ARTIFACTS = {"plan.json", "input.json", "drawing.svg", "drawing.png", "overlay.p
              "speed.png", "trajectory.csv", "job.json", "report.json"}
 
 
-def inkmotion(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+def inkmotion(*args: str, cwd: Path | None = None,
+              env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore", **(env or {})}
     return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
                           text=True, timeout=300, cwd=cwd, env=env)
 
@@ -57,6 +58,22 @@ def test_run_config_reproduces_the_plan(fitted: Path, tmp_path: Path) -> None:
     a = json.loads((fitted / "plan.json").read_text())
     b = json.loads((again / "plan.json").read_text())
     assert a == b
+
+
+def test_run_config_takes_the_kinds_options(fitted: Path, tmp_path: Path) -> None:
+    """``run --config job.json --steps N`` overrides as ``run fit --config`` does; an
+    option the job's kind does not have is one sentence, and nothing is written."""
+    res = inkmotion("run", "--config", str(fitted / "job.json"), "--steps", "4",
+                    "--out", str(tmp_path / "four"), "--no-record")
+    assert res.returncode == 0, res.stderr
+    spec = json.loads((tmp_path / "four" / "job.json").read_text())["spec"]
+    assert spec["params"]["steps"] == 4 and spec["params"]["size"] == 120
+    res = inkmotion("run", "--out", str(tmp_path / "x"), "--config", str(fitted / "job.json"),
+                    "--vmax", "3")
+    assert res.returncode == 2 and res.stderr.strip() == (
+        f"error: --vmax is not an option of fit jobs ({fitted / 'job.json'} is a fit job); "
+        "`inkmotion run fit --help` lists the options.")
+    assert not (tmp_path / "x").exists()
 
 
 def test_plugins_lists_built_ins() -> None:
@@ -109,6 +126,28 @@ def test_bad_config_file(tmp_path: Path) -> None:
 def test_help_has_examples() -> None:
     res = inkmotion("run", "fit", "--help")
     assert res.returncode == 0 and "inkmotion run fit text:hello" in res.stdout
+
+
+def test_help_reads_at_80_columns() -> None:
+    """Panels: the command's own options first (--out), then the kind's, then each plugin's;
+    every option name whole (no ellipsis) within 80 columns."""
+    from inkmotion.cli.kind_commands import plugin_options
+    from inkmotion.jobs.kind import job_kind
+    from inkmotion.jobs.params import describe
+
+    res = inkmotion("run", "fit", "--help", env={"COLUMNS": "80"})
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert all(len(line) <= 80 for line in lines) and "…" not in res.stdout
+    titles = [line.split("─")[1].strip() for line in lines if line.startswith("╭─")]
+    assert titles[:4] == ["Arguments", "Input/Output", "fit parameters", "Every job"]
+    assert "dce initialiser (--initialiser dce)" in titles
+    assert res.stdout.index("--out") < res.stdout.index("--steps")
+    kind = job_kind("fit")
+    declared = describe(kind.Params) + [opt for _, _, opt in plugin_options(kind).values()]
+    for info in declared:
+        flag = f"--[no-]{info.option[2:]}" if info.type is bool else info.option
+        assert f"│ {flag} " in res.stdout, flag
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data is absent")

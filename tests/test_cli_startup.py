@@ -11,13 +11,19 @@ from __future__ import annotations
 
 import json
 import os
+import statistics
 import subprocess
 import sys
+import tempfile
+import time
+from pathlib import Path
 
 import pytest
 
-#: modules that make start-up slow; none may load on the commands below
-HEAVY = ("torch", "numpy", "scipy", "cv2", "rerun", "celery", "kombu", "matplotlib")
+#: modules that make start-up slow; none may load on the commands below (the job store's
+#: read-only commands read a current SQLite store with sqlite3, not SQLAlchemy)
+HEAVY = ("torch", "numpy", "scipy", "cv2", "rerun", "celery", "kombu", "matplotlib",
+         "sqlalchemy", "alembic", "open_clip")
 
 #: ``python -c PROBE HEAVY,... ARGV...`` runs ``main()`` with ARGV, then prints its exit code,
 #: output and the heavy modules it loaded as one JSON line on the real stdout
@@ -48,14 +54,13 @@ def probe(env: dict[str, str], *argv: str) -> dict:
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-@pytest.fixture(scope="module")
-def job_store(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, str], str]:
-    """A SQLite job store with a queued and a succeeded job (whose artifacts hold a
-    recording); the environment that points the command line at it, and the succeeded id."""
+def make_store(data: Path) -> tuple[dict[str, str], str]:
+    """A SQLite job store in ``data`` with a queued and a succeeded job (whose artifacts
+    hold a recording); the environment that points the command line at it, and the
+    succeeded id."""
     from inkmotion import store
     from inkmotion.recording import RECORDING_NAME
 
-    data = tmp_path_factory.mktemp("startup-data")
     url = f"sqlite:///{data / 'jobs.sqlite3'}"
     store.create_job({"kind": "fit"}, kind="fit", queue="optimise", label="text:queued",
                      total=10, db_url=url)
@@ -71,6 +76,12 @@ def job_store(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, str],
     env = {**os.environ, "INKMOTION_DATA_DIR": str(data), "INKMOTION_DB_URL": url,
            "DISPLAY": "", "WAYLAND_DISPLAY": "", "PYTHONWARNINGS": "ignore"}
     return env, done.id
+
+
+@pytest.fixture(scope="module")
+def job_store(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, str], str]:
+    """:func:`make_store` in a temporary folder."""
+    return make_store(tmp_path_factory.mktemp("startup-data"))
 
 
 @pytest.mark.parametrize("argv", [
@@ -136,6 +147,64 @@ def test_user_errors_load_no_heavy_module(job_store: tuple[dict[str, str], str])
     assert result["loaded"] == []
 
 
+def test_view_of_a_missing_or_empty_folder_is_one_sentence(
+        job_store: tuple[dict[str, str], str], tmp_path: Path) -> None:
+    """A path that is not there is said to be a path, not looked up as a job id."""
+    env, _ = job_store
+    missing = probe(env, "view", str(tmp_path / "no" / "such"))
+    assert missing["code"] == 1 and missing["loaded"] == []
+    assert missing["stderr"].startswith(f"error: {tmp_path / 'no' / 'such'}: no such folder")
+    empty = probe(env, "view", str(tmp_path))
+    assert empty["code"] == 1 and empty["loaded"] == []
+    assert empty["stderr"].startswith(f"error: {tmp_path} holds no recording.rrd")
+    assert len(empty["stderr"].strip().splitlines()) == 1
+
+
+def test_waiting_on_a_failed_job_ends_in_one_error_line(
+        job_store: tuple[dict[str, str], str]) -> None:
+    from inkmotion import store
+
+    env, _ = job_store
+    url = env["INKMOTION_DB_URL"]
+    made = store.create_job({"kind": "fit"}, kind="fit", queue="optimise", label="text:x",
+                            total=10, db_url=url)
+    store.mark_failed(made.id, "text:x: bad input.", url)
+    store.dispose_engines()
+    try:
+        result = probe(env, "jobs", "wait", made.id, "-q")
+    finally:
+        store.delete_job(made.id, url)
+        store.dispose_engines()
+    assert result["code"] == 1 and result["loaded"] == []
+    lines = result["stderr"].strip().splitlines()
+    assert lines == [f"{made.id}: failed: text:x: bad input.",
+                     f"error: 1 of 1 job(s) did not succeed ({made.id[:12]} failed); "
+                     "`inkmotion jobs logs ID` shows why."]
+
+
+def test_jobs_list_keeps_ids_and_inputs_whole_at_80_columns(
+        job_store: tuple[dict[str, str], str]) -> None:
+    """No ellipsis: the id prefix is whole, a long input folds instead of being cut."""
+    from inkmotion import store
+
+    env, _ = job_store
+    label = "results/" + "a-long-folder-name/" * 4 + "tag.json"
+    made = store.create_job({"kind": "fit"}, kind="fit", queue="optimise", label=label,
+                            total=10, db_url=env["INKMOTION_DB_URL"])
+    store.dispose_engines()
+    try:
+        result = probe({**env, "COLUMNS": "80"}, "jobs", "list")
+    finally:
+        store.delete_job(made.id, env["INKMOTION_DB_URL"])
+        store.dispose_engines()
+    assert result["code"] == 0, result["stderr"]
+    lines = result["stdout"].splitlines()
+    assert all(len(line) <= 80 for line in lines) and "…" not in result["stdout"]
+    assert any(line.startswith(made.id[:12]) for line in lines)
+    start = lines[0].index("input")  # the last column at 80 (the worker is left out)
+    assert label in "".join(line[start:].rstrip() for line in lines[1:])
+
+
 def _python(code: str) -> list[str]:
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=120)
@@ -167,3 +236,35 @@ def test_recording_name_needs_no_recorder() -> None:
                   "      [m for m in ('torch', 'rerun') if m in sys.modules])")
     assert out == ["recording.rrd", "True", "[]"]
 
+
+
+#: the commands timed by ``python tests/test_cli_startup.py`` ("{id}": a job of the store)
+TIMED = (["--help"], ["jobs", "list"], ["jobs", "show", "{id}"], ["jobs", "wait", "{id}", "-q"],
+         ["view", "--help"], ["view", "/no/such/dir"])
+
+
+def startup_medians(repeats: int = 5) -> dict[str, float]:
+    """Median wall time (s) of each :data:`TIMED` command, as the ``inkmotion`` script in a
+    fresh process, and of a bare ``python -c "import torch"``, interleaved in one run so
+    that they share the machine's load. Figures, not a test: nothing here asserts time."""
+    script = Path(sys.executable).with_name("inkmotion")
+    with tempfile.TemporaryDirectory() as tmp:
+        env, job_id = make_store(Path(tmp))
+        commands = {"import torch": [sys.executable, "-c", "import torch"]}
+        for argv in TIMED:
+            args = [a.format(id=job_id[:8]) for a in argv]
+            commands["inkmotion " + " ".join(argv)] = [str(script), *args]
+        times: dict[str, list[float]] = {name: [] for name in commands}
+        for _ in range(repeats):
+            for name, command in commands.items():
+                started = time.perf_counter()
+                subprocess.run(command, capture_output=True, env=env, timeout=120)
+                times[name].append(time.perf_counter() - started)
+    return {name: statistics.median(values) for name, values in times.items()}
+
+
+if __name__ == "__main__":
+    medians = startup_medians(int(sys.argv[1]) if len(sys.argv) > 1 else 5)
+    torch_s = medians["import torch"]
+    for name, seconds in medians.items():
+        print(f"{name:34s} {seconds:6.3f} s  {seconds / torch_s:5.2f} x import torch")

@@ -2,7 +2,9 @@
 moved to ``inkmotion.kinds`` (issue 21): each still reproduces its results on the CPU —
 the plans of fit, tag and abstract bit for bit, the simulated arm's joint, Cartesian and
 executed trajectories byte for byte, the evaluation's table exactly — and every figure of
-its report.json but the wall-clock ones is unchanged.
+its report.json but the wall-clock ones is unchanged. One key was added to the files since:
+the tag and abstract reports record the random-weights warning under ``warnings`` (issue 24:
+a job run on random CLIP weights says so in its report, not only once on the console).
 
 The files are as ``inkmotion run`` wrote them: inputs relative to tests/data/v4_jobs, the
 tiny CLIP config relative to the repository, random weights as recorded, the abstraction's

@@ -3,7 +3,8 @@
 - foundation: the top-level modules ``inkmotion.errors, json_files, settings, rng, lazy,
   events, devices`` — import only the foundation.
 - engines: ``sigma_lognormal, geometry, inputs, rendering, image_losses, fitting, clip,
-  saliency, initialisers, images, outputs, robot, evaluation, recording, profiling, store``
+  saliency, initialisers, images, outputs, robot, evaluation, recording, profiling, store,
+  samples``
   and the top-level ``speed_extrema`` — import the foundation, the engines and
   ``inkmotion.plugin_host.protocols`` only.
 - plugin host: ``inkmotion.plugin_host`` — imports the foundation (the protocols' engine
@@ -53,7 +54,7 @@ PROTOCOLS = "inkmotion.plugin_host.protocols"
 FOUNDATION = ("errors", "json_files", "settings", "rng", "lazy", "events", "devices")
 ENGINES = ("sigma_lognormal", "geometry", "inputs", "rendering", "image_losses", "fitting",
            "clip", "saliency", "initialisers", "images", "outputs", "robot", "plotter",
-           "evaluation", "recording", "profiling", "store", "speed_extrema")
+           "evaluation", "recording", "profiling", "store", "samples", "speed_extrema")
 
 #: layer -> (its packages under ``inkmotion.``, the layers it may import, the rule in words)
 LAYERS: dict[str, tuple[tuple[str, ...], frozenset[str], str]] = {

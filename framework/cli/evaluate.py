@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from inkmotion.cli.run import OutOpt, RecordOpt
+from inkmotion.cli.run import ForceOpt, OutOpt, RecordOpt
 
 
 def evaluate_cmd(
@@ -25,6 +25,7 @@ def evaluate_cmd(
         help="The GML/JSON the plan was fitted to (its time stamps: human agreement).")
     ] = None,
     record: RecordOpt = False,
+    force: ForceOpt = False,
 ) -> None:
     """Compare ΣΛ with path-constrained minimum jerk and time-optimal (TOPP-RA) timings.
 
@@ -41,7 +42,7 @@ def evaluate_cmd(
     """
     from inkmotion.cli.run import _run_kind
 
-    values = {"out_dir": out_dir, "record": record, "config": None, "v_max": vmax,
+    values = {"out_dir": out_dir, "record": record, "force": force, "config": None, "v_max": vmax,
               "a_max": amax, "path": path, "rate": rate,
               "setup": str(setup) if setup else None,
               "recording": str(recording) if recording else None}

@@ -21,8 +21,8 @@ from inkmotion.errors import InkmotionError
 if TYPE_CHECKING:
     from inkmotion.store import JobRecord
 
-err = Console(stderr=True)
-out = Console()
+err = Console(stderr=True, emoji=False)  # a label or an error may hold `:x:`: not emoji
+out = Console(emoji=False)
 
 STATUS_STYLE = {"queued": "yellow", "running": "cyan", "succeeded": "green", "failed": "red",
                 "cancelled": "magenta", "stalled": "red"}
@@ -65,10 +65,10 @@ def _age(record: JobRecord) -> str:
     created = record.created_at
     s = (datetime.now(timezone.utc) - created).total_seconds()
     if s < 90:
-        return f"{s:.0f} s ago"
+        return f"{s:.0f} s"
     if s < 5400:
-        return f"{s / 60:.0f} min ago"
-    return f"{s / 3600:.1f} h ago" if s < 172800 else created.strftime("%Y-%m-%d")
+        return f"{s / 60:.0f} min"
+    return f"{s / 3600:.1f} h" if s < 172800 else created.strftime("%Y-%m-%d")
 
 
 def _figures(values: dict[str, Any]) -> str:
@@ -86,8 +86,6 @@ def jobs_list(
     as_json: JsonOpt = False,
 ) -> None:
     """List jobs, newest first."""
-    from rich.table import Table
-
     from inkmotion.store import list_jobs
 
     try:
@@ -97,47 +95,69 @@ def jobs_list(
     if as_json:
         print(json.dumps([r.to_dict() for r in records], indent=1))
         return
-    table = Table("id", "status", "kind", "input", "progress", "attempts", "worker", "created")
-    for column in table.columns[:2]:
-        column.no_wrap = True
+    if not records:
+        err.print("no jobs" + (f" with status {', '.join(status)}" if status else "")
+                  + "; `inkmotion submit` queues one.", highlight=False)
+        return
+    out.print(jobs_table(records, out.width))
+
+
+def jobs_table(records: list[JobRecord], width: int) -> Any:
+    """The table of ``jobs list`` for a console ``width`` columns wide: short figures never
+    wrap; the id (a copyable prefix) never shrinks, the input folds rather than lose
+    characters to an ellipsis; the worker is left to ``jobs show`` below 100 columns,
+    where it would squeeze the input."""
+    from rich.table import Table
+
+    table = Table(box=None, pad_edge=False, header_style="bold underline")
+    for name in ("id", "status", "kind", "steps", "tries", "age"):
+        table.add_column(name, no_wrap=True)
+    table.add_column("input", overflow="fold")
+    workers = width >= 100
+    if workers:
+        table.add_column("worker", overflow="fold")
     for r in records:
         status = shown_status(r)
         style = STATUS_STYLE.get(status, "")
-        progress = f"{r.step}/{r.total}" if r.total else ""
-        table.add_row(r.id[:12], f"[{style}]{status}[/]", r.kind, r.label, progress,
-                      str(r.attempts), r.worker_host or "", _age(r))
-    out.print(table)
+        steps = f"{r.step}/{r.total}" if r.total else ""
+        row = [r.id[:12], f"[{style}]{status}[/]", r.kind, steps, str(r.attempts), _age(r),
+               _escape(r.label)]
+        table.add_row(*row, *([_escape(r.worker_host or "")] if workers else []))
+    return table
+
+
+def _escape(text: str) -> str:
+    """``text`` shown as it is (a label may hold ``[``, rich's markup)."""
+    from rich.markup import escape
+
+    return escape(text)
 
 
 @jobs_app.command("show")
 def jobs_show(job_id: JobIdArg, as_json: JsonOpt = False) -> None:
     """Show one job: status, progress, losses, metrics, attempts, errors, artifacts."""
-    from rich.table import Table
-
     record = resolve_job(job_id)
     d = record.to_dict()
     d["status"] = shown_status(record)
     if as_json:
         print(json.dumps(d, indent=1))
         return
-    table = Table(show_header=False, box=None)
-    for key in SHOWN_FIELDS:
-        value = d.get(key)  # `metrics` is absent from records of older stores
-        if value is None or value == "" or value == {}:
-            continue
-        if key in ("losses", "metrics"):
-            value = _figures(value)
-        table.add_row(f"[bold]{key}[/]", str(value))
-    out.print(table)
+    shown = [k for k in SHOWN_FIELDS if d.get(k) not in (None, "", {})]  # `metrics` is
+    width = max(map(len, shown))  # absent from records of older stores
+    for key in shown:
+        value = _figures(d[key]) if key in ("losses", "metrics") else str(d[key])
+        # one line each, wrapped by the terminal: an id or a path stays whole to copy
+        out.print(f"[bold]{key:<{width}}[/]  {_escape(value)}", soft_wrap=True,
+                  highlight=False)
 
 
 def _finished_line(r: JobRecord) -> str:
     style = STATUS_STYLE.get(r.status, "")
     line = f"{r.id}: [{style}]{r.status}[/]"
     if r.status == "succeeded":
-        line += f" -> {r.artifact_dir}"
+        line += f" -> {_escape(r.artifact_dir or '')}"
     elif r.error:
-        line += f": {r.error}"
+        line += f": {_escape(r.error)}"
     return line
 
 
@@ -190,9 +210,12 @@ def jobs_wait(
                      f"{', '.join(p[:12] for p in pending)}.", code=EXIT_TIMEOUT)
             time.sleep(interval)
     for i in ids:
-        err.print(_finished_line(done[i]), highlight=False)
-    if any(r.status != "succeeded" for r in done.values()):
-        raise typer.Exit(EXIT_USER)
+        err.print(_finished_line(done[i]), highlight=False, soft_wrap=True)
+    unsuccessful = [r for r in done.values() if r.status != "succeeded"]
+    if unsuccessful:
+        fail(f"{len(unsuccessful)} of {len(ids)} job(s) did not succeed "
+             f"({', '.join(f'{r.id[:12]} {r.status}' for r in unsuccessful)}); "
+             "`inkmotion jobs logs ID` shows why.")
 
 
 @jobs_app.command("cancel")
@@ -207,7 +230,7 @@ def jobs_cancel(job_ids: JobIdsArg) -> None:
         if cancelled:
             err.print(f"{r.id}: cancelled", highlight=False)
         else:
-            err.print(f"{r.id}: already {r.status}; nothing to cancel", highlight=False)
+            report(f"{r.id} is already {r.status}; nothing to cancel.")
             code = EXIT_USER
         if warning:
             err.print(f"[yellow]warning:[/] {warning}", highlight=False)

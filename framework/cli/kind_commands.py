@@ -9,6 +9,11 @@ plugin is chosen.
 
 The groups list and build their commands lazily: only the kind asked for is looked at, and
 nothing here imports torch, so ``--help`` answers at once.
+
+``--help`` groups the options in panels, so that they read at 80 columns: the command's own
+(:data:`IO_PANEL`: ``--out``, ``--config``, ...) first, then the kind's parameters, the
+settings every job has, and one panel per plugin with that plugin's options. Each panel is
+its own table, sized to its own longest option name, so names are never cut.
 """
 
 from __future__ import annotations
@@ -25,6 +30,11 @@ from inkmotion.errors import SpecError
 from inkmotion.jobs.params import ParamInfo, check_scalar, describe
 from inkmotion.jobs.spec import JobSpec
 
+#: the panel of the command's own options (``--out``, ``--config``, ``--force``, ...)
+IO_PANEL = "Input/Output"
+#: the panel of the shell-level options every kind shares
+SHELL_PANEL = "Every job"
+
 #: shell-level options every kind shares (spec fields, not the kind's params)
 SHELL_OPTIONS = (
     ParamInfo("seed", int, 0, "Random seed.", minimum=0),
@@ -40,6 +50,8 @@ def _default_text(info: ParamInfo) -> str:
         if isinstance(default, list):
             return ", ".join(c.name for c in default) or "none"
         return default.name if default is not None else "auto"
+    if isinstance(default, bool):
+        return "on" if default else "off"
     return "" if default is None else f"{default:g}" if isinstance(default, float) else str(
         default)
 
@@ -48,10 +60,11 @@ def _escape(text: str) -> str:
     return text.replace("[", "\\[")  # rich markup
 
 
-def option_parameter(info: ParamInfo, dest: str) -> inspect.Parameter:
-    """A typer option for one parameter, as a signature entry; unset options are None (the
-    config's or the kind's default applies)."""
-    help_text = _escape(f"{info.help} [default: {_default_text(info)}]")
+def option_parameter(info: ParamInfo, dest: str, panel: str | None = None) -> inspect.Parameter:
+    """A typer option for one parameter, as a signature entry, shown in help panel
+    ``panel``; unset options are None (the config's or the kind's default applies)."""
+    default = _default_text(info)
+    help_text = _escape(f"{info.help} [default: {default}]" if default else info.help)
     py: Any = {int: int, float: float, bool: bool}.get(info.type, str)
     if info.plugin_kind is not None:
         py = str
@@ -59,10 +72,12 @@ def option_parameter(info: ParamInfo, dest: str) -> inspect.Parameter:
         py = list[str]
     if py is bool:
         name = info.option[2:]
-        opt = typer.Option(f"--{name}/--no-{name}", help=help_text, show_default=False)
+        opt = typer.Option(f"--{name}/--no-{name}", help=help_text, show_default=False,
+                           rich_help_panel=panel)
     else:
         opt = typer.Option(info.option, help=help_text, show_default=False,
-                           metavar="NAME" if info.plugin_kind else None)
+                           metavar="NAME" if info.plugin_kind else None,
+                           rich_help_panel=panel)
     return inspect.Parameter(dest, inspect.Parameter.KEYWORD_ONLY, default=None,
                              annotation=Annotated[Optional[py], opt])  # noqa: UP045
 
@@ -84,7 +99,7 @@ def plugin_options(kind: Any) -> dict[str, tuple[ParamInfo, str, ParamInfo]]:
                 if dest not in out:
                     out[dest] = (info, name, ParamInfo(
                         opt.name, opt.type, opt.default,
-                        f"{opt.help} (with {info.name} {name})", opt.optional, opt.minimum,
+                        opt.help, opt.optional, opt.minimum,
                         opt.maximum, opt.choices, flag=flag))
     return out
 
@@ -176,23 +191,60 @@ def _drop_out(words: list[str]) -> list[str]:
     return out
 
 
+def plugin_panel(info: ParamInfo, plugin_name: str) -> str:
+    """The help panel of one plugin's options, e.g. ``dce initialiser (--initialiser dce)``."""
+    return f"{plugin_name} {info.plugin_kind} ({info.option} {plugin_name})"
+
+
+class KindCommand(typer.core.TyperCommand):
+    """A ``run KIND`` / ``submit KIND`` command; its ``--help`` option sits in
+    :data:`IO_PANEL` with the command's own options (not in a panel of its own first), and
+    a switch shows as one name, ``--[no-]merge``, rather than in a column of ``--no-...``
+    names that would take a third of an 80-column help."""
+
+    def get_help_option(self, ctx: Any) -> Any:
+        option = super().get_help_option(ctx)
+        if option is not None:
+            option.rich_help_panel = IO_PANEL
+        return option
+
+    def format_help(self, ctx: Any, formatter: Any) -> None:
+        switches = [p for p in self.params if len(p.opts) == 1 and len(p.secondary_opts) == 1
+                    and p.secondary_opts[0] == "--no-" + p.opts[0][2:]]
+        saved = [(p.opts, p.secondary_opts, p.help, p.show_default) for p in switches]
+        try:
+            for p in switches:
+                p.opts, p.secondary_opts = ["--[no-]" + p.opts[0][2:]], []
+                if p.show_default:  # typer would now print the default as True / False
+                    p.help = f"{p.help} \\[default: {'on' if p.default else 'off'}]"
+                    p.show_default = False
+            super().format_help(ctx, formatter)
+        finally:
+            for p, (opts, secondary, text, show) in zip(switches, saved, strict=True):
+                p.opts, p.secondary_opts, p.help, p.show_default = opts, secondary, text, show
+
+
 def kind_command(kind: Any, verb: str, callback: Callable[[str, list[str], dict], None],
                  extra: list[inspect.Parameter]) -> Any:
-    """The ``run KIND`` / ``submit KIND`` command of ``kind``: its inputs as arguments, its
-    parameters, its plugins' options and the shell options, plus ``extra``."""
+    """The ``run KIND`` / ``submit KIND`` command of ``kind``: its inputs as arguments,
+    ``extra`` (the command's own options, in :data:`IO_PANEL`) and ``--config``, the kind's
+    parameters, the shell options, and its plugins' options, a help panel each."""
     inputs = [i.name for i in kind.inputs]
     params = [inspect.Parameter(i.name, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None,
                                 annotation=Annotated[Optional[str], typer.Argument(  # noqa: UP045
                                     help=_escape(i.help), show_default=False)])
               for i in kind.inputs]
+    params += extra
     params.append(inspect.Parameter(
         "config", inspect.Parameter.KEYWORD_ONLY, default=None,
         annotation=Annotated[Optional[Path], typer.Option(  # noqa: UP045
-            "--config", help="A job.json to start from; options override it.")]))
-    params += [option_parameter(info, info.name) for info in SHELL_OPTIONS]
-    params += [option_parameter(info, info.name) for info in describe(kind.Params)]
-    params += [option_parameter(opt, dest) for dest, (_, _, opt) in plugin_options(kind).items()]
-    params += extra
+            "--config", help="A job.json to start from; options override it.",
+            rich_help_panel=IO_PANEL)]))
+    own = f"{kind.name} parameters"
+    params += [option_parameter(info, info.name, own) for info in describe(kind.Params)]
+    params += [option_parameter(info, info.name, SHELL_PANEL) for info in SHELL_OPTIONS]
+    params += [option_parameter(opt, dest, plugin_panel(info, name))
+               for dest, (info, name, opt) in plugin_options(kind).items()]
 
     def command(**values: Any) -> None:
         given = [values.pop(n) for n in inputs]
@@ -201,13 +253,29 @@ def kind_command(kind: Any, verb: str, callback: Callable[[str, list[str], dict]
     command.__signature__ = inspect.Signature(params)  # type: ignore[attr-defined]
     command.__annotations__ = {p.name: p.annotation for p in params}
     single = typer.Typer(add_completion=False, rich_markup_mode="rich")
-    single.command(kind.name, help=_help(kind, verb), short_help=kind.description)(command)
+    single.command(kind.name, cls=KindCommand, help=_help(kind, verb),
+                   short_help=kind.description)(command)
     return typer.main.get_command(single)
+
+
+def config_of(args: list[str]) -> str | None:
+    """The value of ``--config`` on a command line (``--config X`` or ``--config=X``)."""
+    for i, arg in enumerate(args):
+        if arg == "--config" and i + 1 < len(args):
+            return args[i + 1]
+        if arg.startswith("--config="):
+            return arg.split("=", 1)[1]
+    return None
 
 
 class KindGroup(typer.core.TyperGroup):
     """A group whose subcommands are the registered job kinds, built on demand (a subclass
-    sets :meth:`make`)."""
+    sets :meth:`make`).
+
+    ``GROUP --config job.json [options]`` (no kind first) is ``GROUP KIND --config job.json
+    [options]`` with job.json's kind: the kind's own command parses the whole command line,
+    so the overrides are those of ``GROUP KIND --config`` and an option the kind does not
+    have is one sentence."""
 
     def make(self, kind: Any) -> Any:
         raise NotImplementedError
@@ -226,3 +294,31 @@ class KindGroup(typer.core.TyperGroup):
             fail(f"Unknown job kind {name!r}; kinds are: {', '.join(sorted(kinds)) or 'none'} "
                  "(`inkmotion plugins` lists them).")
         return self.make(kinds[name])
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        config = config_of(args)
+        if args and args[0].startswith("-") and config is not None:
+            args = [self._kind_of(ctx, Path(config), args), *args]
+        return super().parse_args(ctx, args)
+
+    def _kind_of(self, ctx: Any, config: Path, args: list[str]) -> str:
+        """The kind of job file ``config``, once every option in ``args`` is known to it."""
+        from inkmotion.cli.errors import EXIT_USAGE, fail
+        from inkmotion.errors import InkmotionError
+
+        try:
+            kind = JobSpec.load(config).kind
+        except InkmotionError as exc:
+            fail(exc)
+        command = self.get_command(ctx, kind)
+        known = set(ctx.help_option_names)
+        for param in command.params:
+            known |= {*param.opts, *param.secondary_opts}
+        options = args[:args.index("--")] if "--" in args else args  # "--" ends options
+        unknown = [a.split("=", 1)[0] for a in options
+                   if a.startswith("--") and a.split("=", 1)[0] not in known]
+        if unknown:
+            fail(f"{unknown[0]} is not an option of {kind} jobs ({config} is a {kind} job); "
+                 f"`inkmotion {ctx.info_name} {kind} --help` lists the options.",
+                 code=EXIT_USAGE)
+        return kind

@@ -29,6 +29,7 @@ from inkmotion.cli import (
     render,
     robot,
     run,
+    samples,
     submit,
     view,
     worker,
@@ -58,7 +59,11 @@ def plugins_cmd(
     if as_json:
         print(json.dumps([r.__dict__ for r in rows], indent=1))
         return
-    table = Table("kind", "name", "origin", "description")
+    table = Table(box=None, pad_edge=False, header_style="bold underline")
+    table.add_column("kind", no_wrap=True)
+    table.add_column("name", no_wrap=True)  # what --renderer NAME etc. take: kept whole
+    table.add_column("origin", overflow="fold")
+    table.add_column("description")
     for r in rows:
         desc = (r.description if r.error is None else f"[yellow]{r.error}[/]"
                 if r.description == "disabled" else f"[red]failed to load: {r.error}[/]")
@@ -112,8 +117,8 @@ def bench_cmd(
 def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
-    for group in (run, submit, evaluate, benchmark, render, jobs, worker, view, gallery, clip,
-                  robot):
+    for group in (run, submit, evaluate, benchmark, samples, render, jobs, worker, view,
+                  gallery, clip, robot):
         group.register(app)
 
 
@@ -121,9 +126,12 @@ _register_groups()
 
 
 def main() -> None:
-    """Entry point of the ``inkmotion`` script."""
+    """Entry point of the ``inkmotion`` script: the app's command tree, its help reflowed
+    (:mod:`inkmotion.cli.help_text`), run."""
+    from inkmotion.cli.help_text import reflow_tree
+
     try:
-        app()
+        reflow_tree(typer.main.get_command(app))()
     except InkmotionError as exc:  # a last guard: user errors never show a traceback
         report(exc)
         sys.exit(EXIT_USER)

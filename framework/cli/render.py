@@ -23,6 +23,7 @@ def render_cmd(
     seed: Annotated[int, typer.Option(help="Seed of the spray particles and drips.")] = 0,
     colour: Annotated[str, typer.Option(help="Paint colour, #rrggbb.")] = "#141418",
     background: Annotated[str, typer.Option(help="Paper colour, #rrggbb.")] = "#ffffff",
+    force: Annotated[bool, typer.Option("--force", help="Replace --out if it exists.")] = False,
 ) -> None:
     """Re-render a saved plan at any resolution (prints up to 16384 px).
 
@@ -38,10 +39,12 @@ def render_cmd(
         fail("give the image to write: --out FILE.png.", code=2)
     if out.suffix.lower() != ".png":
         fail(f"--out {out}: render writes PNG images; name the file *.png.", code=2)
+    from inkmotion.outputs import refuse_to_overwrite
     from inkmotion.plugin_host import plugin
     from inkmotion.rendering.render_plan import render_plan
 
     try:
+        refuse_to_overwrite(out, force, folder=False)
         raster = plugin("renderer", "raster") if renderer == "raster" else None
         figures = render_plan(plan, out, renderer=renderer, raster=raster, size=size,
                               seed=seed, colour=colour, background=background)

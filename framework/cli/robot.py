@@ -29,13 +29,13 @@ def teach_cmd(
         help="enforce (a real arm) or ignore (simulators and test benches).")] = "enforce",
     force: Annotated[bool, typer.Option("--force", help="Replace --out if it exists.")] = False,
 ) -> None:
-    """Teach the drawing plane: guide the pen tip onto the four corners of the drawing area
-    (Enter at each), and write a setup file whose plane and paper are those corners.
+    """Teach the drawing plane: four corners, guided by hand, make a setup file.
 
-    The arm floats while you guide it (a very soft joint impedance that follows your hand);
-    hold it by the pen holder, set the tip on each corner in order around the area, press
-    Enter. The corners are checked (planar, a rectangle that holds the paper) before the file
-    is written.
+    Guide the pen tip onto the four corners of the drawing area (Enter at each); the setup
+    file written has the plane and the paper of those corners. The arm floats while you
+    guide it (a very soft joint impedance that follows your hand); hold it by the pen
+    holder, set the tip on each corner in order around the area, press Enter. The corners
+    are checked (planar, a rectangle that holds the paper) before the file is written.
 
     Examples:
 
@@ -45,13 +45,16 @@ def teach_cmd(
 
       inkmotion run draw plan.json --robot 172.16.0.2 --setup bench.toml --dry-run --out r/d
     """
+    from inkmotion.outputs import refuse_to_overwrite
     from inkmotion.outputs.atomic import write_bytes_atomic
     from inkmotion.robot import franka
     from inkmotion.robot.setup import load_setup, setup_to_toml
     from inkmotion.robot.teach import CORNERS, taught_setup, teach_corners
 
-    if out_file.exists() and not force:
-        fail(f"{out_file} exists; choose another --out or pass --force to replace it.")
+    try:
+        refuse_to_overwrite(out_file, force, folder=False)
+    except InkmotionError as exc:
+        fail(exc)
     if realtime not in ("enforce", "ignore"):
         fail(f"--realtime {realtime!r} is not enforce or ignore; pass one of those.")
     try:

@@ -2,7 +2,13 @@
 
 ``inkmotion run KIND INPUT --out DIR [options]`` — one subcommand per job kind, generated
 from its declaration (:mod:`inkmotion.cli.kind_commands`); ``inkmotion run --config
-job.json --out DIR`` reproduces a previous run (any kind, spec version 1 or 2).
+job.json --out DIR [options]`` reproduces a previous run (any kind, any spec version): the
+group reads the kind from job.json and hands the whole command line to ``run KIND``, so it
+takes the same options (``--steps 100`` overrides job.json's steps as with ``run fit
+--config``), and an option that kind does not have is one sentence.
+
+``--out`` onto a folder that holds results is refused unless ``--force``
+(:func:`inkmotion.outputs.refuse_to_overwrite`), before anything is loaded.
 """
 
 from __future__ import annotations
@@ -13,24 +19,28 @@ from typing import Annotated, Any, Optional
 
 import typer
 
-from inkmotion.cli.errors import fail
-from inkmotion.cli.kind_commands import KindGroup, kind_command, spec_from_options
+from inkmotion.cli.errors import EXIT_USAGE, fail
+from inkmotion.cli.kind_commands import IO_PANEL, KindGroup, kind_command, spec_from_options
 from inkmotion.errors import InkmotionError
 
 RUN_HELP = """Run a job in this process (no services needed).
 
 Examples:
 
-  inkmotion run fit text:hello --out results/hello
+  inkmotion run fit sample:tempt-1 --out results/tag
 
-  inkmotion run fit tag.gml --out results/tag --steps 300 --size 350
+  inkmotion run fit text:hello --out results/hello --steps 300 --size 350
 
-  inkmotion run --config results/tag/job.json --out results/again
+  inkmotion run --config results/tag/job.json --out results/again --steps 100
 """
 
 OutOpt = Annotated[Optional[Path], typer.Option(  # noqa: UP045
-    "--out", help="Output folder (written atomically; required).")]
-RecordOpt = Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")]
+    "--out", help="Output folder (required; written whole or not at all).",
+    rich_help_panel=IO_PANEL)]
+ForceOpt = Annotated[bool, typer.Option(
+    "--force", help="Replace the results already in --out.", rich_help_panel=IO_PANEL)]
+RecordOpt = Annotated[bool, typer.Option(help="Write recording.rrd (rerun).",
+                                         rich_help_panel=IO_PANEL)]
 
 
 def execute(spec: Any, out_dir: Path, record: bool) -> None:
@@ -63,11 +73,14 @@ def summary(report: dict) -> str:
 
 def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None:
     from inkmotion.jobs.kind import resolve
+    from inkmotion.outputs import refuse_to_overwrite
 
     out_dir, record, config = values.pop("out_dir"), values.pop("record"), values.pop("config")
+    force = values.pop("force", False)
     if out_dir is None:
-        fail("give the output folder: --out DIR.", code=2)
+        fail("give the output folder: --out DIR.", code=EXIT_USAGE)
     try:
+        refuse_to_overwrite(out_dir, force)
         spec = spec_from_options(kind_name, inputs, values, config)
         resolve(spec)
     except InkmotionError as exc:
@@ -77,13 +90,16 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
 
 _EXTRA = [
     inspect.Parameter("out_dir", inspect.Parameter.KEYWORD_ONLY, default=None, annotation=OutOpt),
+    inspect.Parameter("force", inspect.Parameter.KEYWORD_ONLY, default=False,
+                      annotation=ForceOpt),
     inspect.Parameter("record", inspect.Parameter.KEYWORD_ONLY, default=True,
                       annotation=RecordOpt),
 ]
 
 
 class RunGroup(KindGroup):
-    """``inkmotion run KIND``: one command per job kind."""
+    """``inkmotion run KIND``: one command per job kind (and ``inkmotion run --config
+    job.json ...``, see :class:`KindGroup`)."""
 
     def make(self, kind: Any) -> Any:
         return kind_command(kind, "run", _run_kind, _EXTRA)
@@ -97,26 +113,22 @@ run_app = typer.Typer(cls=RunGroup, help=RUN_HELP, no_args_is_help=False,
 def run_main(
     ctx: typer.Context,
     config: Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--config", help="A job.json (or spec JSON) to reproduce.")] = None,
-    out_dir: OutOpt = None,
-    record: RecordOpt = True,
+        "--config", help="A job.json to reproduce; every option of its kind's `run KIND` "
+        "applies (e.g. --steps 100 overrides its steps).")] = None,
+    out_dir: Annotated[Optional[Path], typer.Option(  # noqa: UP045
+        "--out", help="Output folder (required; written whole or not at all).")] = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="Replace the results already in --out.")] = False,
+    record: Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")] = True,
 ) -> None:
-    """Run a job in this process."""
-    from inkmotion.jobs.kind import resolve
-    from inkmotion.jobs.spec import JobSpec
-
+    """Run a job in this process. With --config, the options are those of the job's kind
+    (the group hands them to ``run KIND``, see :class:`KindGroup`); this callback
+    only answers a command line without a kind or a job file."""
     if ctx.invoked_subcommand is not None:
         return
-    if config is None or out_dir is None:
-        typer.echo(ctx.get_help(), err=True)
-        fail("give a job kind (e.g. `inkmotion run fit INPUT --out DIR`) or --config job.json "
-             "--out DIR.", code=2)
-    try:
-        spec = JobSpec.load(config)
-        resolve(spec)
-    except InkmotionError as exc:
-        fail(exc)
-    execute(spec, out_dir, record)
+    typer.echo(ctx.get_help(), err=True)
+    fail("give a job kind (e.g. `inkmotion run fit INPUT --out DIR`) or --config job.json "
+         "--out DIR.", code=EXIT_USAGE)
 
 
 def register(app: typer.Typer) -> None:

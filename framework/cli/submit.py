@@ -19,7 +19,7 @@ from typing import Annotated, Any, Optional
 import typer
 
 from inkmotion.cli.errors import fail
-from inkmotion.cli.kind_commands import KindGroup, kind_command, spec_from_options
+from inkmotion.cli.kind_commands import IO_PANEL, KindGroup, kind_command, spec_from_options
 from inkmotion.errors import InkmotionError, SpecError
 
 SUBMIT_HELP = """Queue jobs for the workers; prints the job id(s).
@@ -92,11 +92,13 @@ def _parameter(name: str, annotation: Any, default: Any = None) -> inspect.Param
 
 _EXTRA = [
     _parameter("batch_words", Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--batch-words", help="A .txt file of words, one per line: one text:WORD job each.")]),
+        "--batch-words", help="A .txt file of words, one per line: one text:WORD job each.",
+        rich_help_panel=IO_PANEL)]),
     _parameter("batch_dir", Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--batch-dir", help="A folder of inputs: one job per file.")]),
-    _parameter("as_json", Annotated[bool, typer.Option("--json", help="Print the jobs as JSON.")],
-               False),
+        "--batch-dir", help="A folder of inputs: one job per file.",
+        rich_help_panel=IO_PANEL)]),
+    _parameter("as_json", Annotated[bool, typer.Option(
+        "--json", help="Print the jobs as JSON.", rich_help_panel=IO_PANEL)], False),
 ]
 
 

@@ -21,7 +21,7 @@ from inkmotion.cli.errors import fail
 from inkmotion.cli.jobs import resolve_job
 from inkmotion.errors import InkmotionError, SpecError
 
-out = Console()
+out = Console(emoji=False)  # paths are printed as they are
 
 
 def _rerun_binary() -> str | None:
@@ -47,8 +47,14 @@ def recording_path(target: str) -> Path:
         if not p.is_file():
             raise SpecError(f"{p}: no such recording file; check the path.")
         return p.resolve()
-    if p.is_dir() and (p / RECORDING_NAME).is_file():
-        return (p / RECORDING_NAME).resolve()
+    if p.is_dir():
+        if (p / RECORDING_NAME).is_file():
+            return (p / RECORDING_NAME).resolve()
+        raise SpecError(f"{p} holds no {RECORDING_NAME}; give the --out folder of a run "
+                        "made with --record (the default), or its .rrd file.")
+    if "/" in target or os.sep in target:  # a path (a job id never holds one)
+        raise SpecError(f"{p}: no such folder or file; give a results folder, a .rrd file "
+                        "or a job id.")
     r = resolve_job(target)
     if r.status != "succeeded" or not r.artifact_dir:
         raise SpecError(f"Job {r.id} is {r.status}; its recording appears when it "
@@ -76,11 +82,11 @@ def view_cmd(
                                      "the rerun viewer is not installed here; ")
         out.print(f"{why}open the recording with:\n  {command}\n"
                   f"or in a browser: {binary or 'rerun'} --web-viewer {rrd}", highlight=False,
-                  soft_wrap=True)
+                  soft_wrap=True, markup=False)
         return
     subprocess.Popen([binary, str(rrd)], start_new_session=True,
                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    out.print(f"opened {rrd} in the rerun viewer", highlight=False)
+    out.print(f"opened {rrd} in the rerun viewer", highlight=False, markup=False)
 
 
 def register(app: typer.Typer) -> None:

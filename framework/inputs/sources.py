@@ -1,7 +1,8 @@
 """What an input source string names: a file path or a ``scheme:value`` (``text:hello``).
 
 Pure string tests, so the CLI, the job specs and the readers agree on which sources are
-files to look for and which are values a reader renders itself.
+files to look for and which are values a reader renders itself. ``sample:NAME`` is a scheme
+too: :func:`inkmotion.samples.locate` turns it into the file that ships with inkmotion.
 """
 
 from __future__ import annotations

@@ -31,6 +31,7 @@ from inkmotion.jobs.params import (
     plugin_options,
 )
 from inkmotion.jobs.spec import SPEC_VERSION, JobSpec
+from inkmotion.samples import locate
 
 
 @dataclass(frozen=True)
@@ -137,6 +138,7 @@ def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> N
             raise SpecError(f"The {spec.kind} job needs its {name} input: {info.help}")
         if not check_files or info.form == "text":
             continue
+        value = locate(value)  # sample:NAME -> its shipped file; an unknown name is refused
         if info.form == "source" and is_scheme(value):
             continue
         if not Path(value).is_file():

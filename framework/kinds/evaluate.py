@@ -34,10 +34,11 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     from inkmotion.evaluation.human import human_agreement_of_traces
     from inkmotion.evaluation.plots import plot_minima, plot_speeds
     from inkmotion.kinds.read import read_input
+    from inkmotion.samples import locate
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
-    drawing = Drawing.load(job.spec.inputs["plan"])
+    drawing = Drawing.load(locate(job.spec.inputs["plan"]))
     scale = paper_scale(drawing.canvas, p.setup)
     indices = list(range(len(drawing.plans))) if p.path < 0 else [choose_path(drawing, p.path)]
     shown = choose_path(drawing, p.path)  # the longest, or the one asked for: the plots
@@ -101,8 +102,10 @@ def recorded_agreement(source: str, drawing: Any, png: Path) -> dict[str, Any] |
     the trace, when ``source`` is a file whose points carry time stamps (else None); the
     plot of both speed profiles goes to ``png`` (the fit's report and the benchmark)."""
     from inkmotion.inputs.sources import is_scheme
+    from inkmotion.samples import locate
 
-    if is_scheme(source) or not Path(source).is_file():
+    path = locate(source)  # a sample:NAME is its shipped file
+    if is_scheme(path) or not Path(path).is_file():
         return None
     result = human_agreement_from_files(source, drawing, png)
     if not result.get("has_times"):

@@ -2,7 +2,8 @@
 
 It lives among the kinds, not the engines, because it asks the plugin host for the
 readers; the engines' part of a source, :func:`~inkmotion.inputs.sources.is_scheme`, is
-pure and lives in :mod:`inkmotion.inputs.sources`."""
+pure and lives in :mod:`inkmotion.inputs.sources`. A ``sample:NAME`` source is read from the
+file that ships with inkmotion (:func:`inkmotion.samples.locate`)."""
 
 from __future__ import annotations
 
@@ -12,16 +13,20 @@ from inkmotion.errors import InputError
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.sources import is_scheme
 from inkmotion.plugin_host import host
+from inkmotion.samples import locate
 
 
 def read_input(source: str, reader: str | None = None) -> Traces:
-    """Parse ``source`` (a file path or ``scheme:value``) with the first reader that accepts it,
-    or with the reader plugin named ``reader``.
+    """Parse ``source`` (a file path, ``sample:NAME`` or ``scheme:value``) with the first
+    reader that accepts it, or with the reader plugin named ``reader``.
 
-    A path that does not exist (and is no ``scheme:value`` string) is refused before any
-    reader runs. Readers are asked in name order (``can_read``), so the choice is
-    deterministic; when none accepts the source the error lists the supported forms.
+    A ``sample:NAME`` source becomes its shipped file (an unknown name is refused with the
+    list of samples). A path that does not exist (and is no ``scheme:value`` string) is
+    refused before any reader runs. Readers are asked in name order (``can_read``), so the
+    choice is deterministic; when none accepts the source the error lists the supported
+    forms.
     """
+    source = locate(source)
     if not is_scheme(source) and not Path(source).exists():
         raise InputError(f"{source}: no such file; check the path.")
     if reader is not None:

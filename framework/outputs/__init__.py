@@ -1,4 +1,5 @@
-"""Output writers: SVG, PNG and overlay images, speed plot, trajectory CSV, atomic files.
+"""Output writers: SVG, PNG and overlay images, speed plot, trajectory CSV, atomic files,
+and the command line's refusal to write over results (:func:`refuse_to_overwrite`).
 
 The writers load on first use (PEP 562): :class:`StagingDir` is needed by code that must
 not import torch (the gallery), the image writers import it.
@@ -10,6 +11,8 @@ from inkmotion.lazy import lazy_names
 from inkmotion.outputs.atomic import StagingDir
 
 _LAZY = {
+    "OutputExistsError": "inkmotion.outputs.overwrite",
+    "refuse_to_overwrite": "inkmotion.outputs.overwrite",
     "write_overlay": "inkmotion.outputs.images",
     "write_png": "inkmotion.outputs.images",
     "write_speed_plot": "inkmotion.outputs.speed_plot",
@@ -18,7 +21,9 @@ _LAZY = {
 }
 
 __all__ = [
+    "OutputExistsError",
     "StagingDir",
+    "refuse_to_overwrite",
     "write_overlay",
     "write_png",
     "write_speed_plot",
