@@ -33,10 +33,11 @@ class AbstractKind:
                         form="file"),)
     Params = AbstractParams
     examples = (
-        "inkmotion run abstract photo.jpg --out results/photo",
-        "inkmotion run abstract photo.jpg --targets 300 --varying-width --out results/brush",
-        "inkmotion run abstract photo.png --saliency clip --caption 'a dog' --out results/dog",
-        "inkmotion run abstract photo.png --clip-weights random --steps 10 --out /tmp/a  # tests",
+        "inkmotion run abstract my_photo.jpg --out results/photo",
+        "inkmotion run abstract sample:shapes --targets 300 --varying-width --out results/brush",
+        "inkmotion run abstract dog.png --saliency clip --caption 'a dog' --out results/dog",
+        "inkmotion run abstract sample:shapes --clip-weights random --steps 10 --out results/t"
+        "  # tests",
     )
 
     def steps(self, params: AbstractParams) -> int:

@@ -55,9 +55,10 @@ class EvaluateKind:
                         form="file"),)
     Params = EvaluateParams
     examples = (
-        "inkmotion evaluate results/49867/plan.json --out results/49867-eval",
-        "inkmotion evaluate plan.json --vmax 0.5 --amax 5 --path 2 --out r/eval",
-        "inkmotion evaluate plan.json --recording tag.json --out r/eval   # + human agreement",
+        "inkmotion evaluate results/tag/plan.json --out results/tag-eval",
+        "inkmotion evaluate results/tag/plan.json --vmax 0.5 --amax 5 --path 2 --out results/e2",
+        "inkmotion evaluate results/tag/plan.json --recording sample:tempt-1 --out results/e3"
+        "  # + human agreement",
     )
 
     def steps(self, params: EvaluateParams) -> int:

@@ -27,11 +27,11 @@ class FitKind:
     Params = FitParams
     examples = (
         "inkmotion run fit text:hello --out results/hello",
-        "inkmotion run fit tags/49867.json --out results/49867 --steps 300",
-        "inkmotion run fit tag.gml --out results/smoother --lambda 150 --size 500",
-        "inkmotion run fit tag.gml --out results/sparse --dce-relevance 5",
-        "inkmotion run fit tag.gml --out results/thirty --targets 30",
-        "inkmotion run fit tag.gml --out results/auto --targets auto --max-error 1.5",
+        "inkmotion run fit sample:tempt-1 --out results/tag --steps 300",
+        "inkmotion run fit my_tag.gml --out results/smoother --lambda 150 --size 500",
+        "inkmotion run fit sample:tempt-3 --out results/sparse --dce-relevance 5",
+        "inkmotion run fit sample:tempt-3 --out results/thirty --targets 30",
+        "inkmotion run fit sample:spiral --out results/auto --targets auto --max-error 1.5",
     )
 
     def steps(self, params: FitParams) -> int:

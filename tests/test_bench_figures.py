@@ -15,7 +15,7 @@ from rich.console import Console
 from inkmotion.benchmarks.dense_raster import render_dense
 from inkmotion.benchmarks.figures import FIGURES, TARGETS, describe, show_value, verdict
 from inkmotion.benchmarks.raster import bench_raster, scribble_segments
-from inkmotion.benchmarks.suite import print_figures
+from inkmotion.benchmarks.suite import figures_record, print_figures
 from inkmotion.rendering.raster import render_segments
 
 PACKAGE = Path(__file__).resolve().parents[1] / "framework"
@@ -54,6 +54,19 @@ def test_the_table_says_units_verdicts_and_what_each_figure_is() -> None:
     for key in figures:
         assert re.search(rf"^\s+{key}\s+\S", legend, re.M), key
     assert "dense baseline" in legend and "(no description)" not in text
+
+
+def test_json_says_the_same_as_the_table() -> None:
+    """``bench --json``: each figure's value, unit and meaning; a target's bound and
+    verdict; a figure that could not be measured never counts as met."""
+    record = figures_record({"raster_ms": 3.99, "kinematics_m150_ms": 11.2,
+                             "speedup": math.nan, "fit_input": "sample:tempt-1"})
+    assert record["raster_ms"]["unit"] == "ms" and record["raster_ms"]["met"] is True
+    assert record["kinematics_m150_ms"] | {"what": ""} == {
+        "value": 11.2, "unit": "ms", "what": "", "bound": 10.0, "cmp": "≤", "met": False,
+        "verdict": "≤ 10 ms, missed by 12 %"}
+    assert record["speedup"]["met"] is False
+    assert "met" not in record["fit_input"] and record["fit_input"]["what"]
 
 
 def test_the_dense_baseline_draws_the_renderers_image() -> None:

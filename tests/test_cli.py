@@ -76,6 +76,83 @@ def test_run_config_takes_the_kinds_options(fitted: Path, tmp_path: Path) -> Non
     assert not (tmp_path / "x").exists()
 
 
+def test_run_json_prints_the_report(fitted: Path, tmp_path: Path) -> None:
+    """``--json``: stdout is report.json, and only that (the progress is on stderr)."""
+    out = tmp_path / "again"
+    res = inkmotion("run", "--config", str(fitted / "job.json"), "--out", str(out), "--json",
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout) == json.loads((out / "report.json").read_text())
+
+
+def test_benchmark_json_and_force(tmp_path: Path) -> None:
+    """``benchmark --json`` prints the summary alone on stdout; a second run onto the
+    same folder is refused in one sentence, and replaces it with ``--force``."""
+    out = tmp_path / "bench"
+    args = ("benchmark", "text:hi", "--steps", "2", "--size", "64", "--out", str(out))
+    res = inkmotion(*args, "--json")
+    assert res.returncode == 0, res.stderr
+    summary = json.loads(res.stdout)
+    assert summary == json.loads((out / "summary.json").read_text())
+    assert [row["item"] for row in summary["items"]] == ["text-hi"]
+    again = inkmotion(*args)
+    assert again.returncode == 1 and again.stderr.strip().splitlines() == [
+        f"error: {out} already holds results (summary.json, summary.csv, ...); pass --force "
+        "to replace them, or choose another --out."]
+    assert inkmotion(*args, "--force").returncode == 0
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    (["run", "fit", "--bogus"], "error: no such option: --bogus"),
+    (["jobz"], "error: no such command 'jobz'. Did you mean 'jobs'?"),
+    (["run", "fit", "text:hi", "--steps", "many", "--out", "x"],
+     "error: invalid value for '--steps'"),
+])
+def test_a_command_line_click_cannot_take_is_one_error_line(args: list[str],
+                                                           said: str) -> None:
+    """Usage errors read like every other error: one ``error: …`` line naming the command
+    whose ``--help`` to read, exit status 2, no box, no traceback."""
+    res = inkmotion(*args)
+    assert res.returncode == 2
+    (line,) = res.stderr.strip().splitlines()
+    assert line.startswith(said) and line.endswith("--help` lists what it takes."), line
+
+
+def kind_examples() -> list[tuple[str, list[str]]]:
+    """Every ``inkmotion run KIND ...`` / ``inkmotion evaluate ...`` example a kind
+    declares (its ``--help`` shows them), as (kind, words after the command)."""
+    import shlex
+
+    from inkmotion.plugin_host import host
+
+    found = []
+    for name, kind in sorted(host().plugins("job-kind").items()):
+        for example in kind.examples:
+            words = shlex.split(example, comments=True)
+            if words[:3] == ["inkmotion", "run", name]:
+                found.append((name, words[3:]))
+            elif words[:2] == ["inkmotion", name]:  # evaluate: a command of its own
+                found.append((name, words[2:]))
+    return found
+
+
+@pytest.mark.parametrize(("kind", "args"), kind_examples(),
+                         ids=lambda v: v if isinstance(v, str) else " ".join(v))
+def test_every_kind_example_is_a_command_line_it_takes(kind: str, args: list[str]) -> None:
+    """The examples in ``--help`` name options the command has, with values it accepts
+    (parsed by the command itself; nothing runs)."""
+    import typer
+
+    from inkmotion.cli.main import app
+
+    root = typer.main.get_command(app)
+    with root.make_context("inkmotion", ["--help"], resilient_parsing=True) as ctx:
+        group = root.get_command(ctx, "run")
+        command = (group.get_command(ctx, kind) if kind != "evaluate"
+                   else root.get_command(ctx, "evaluate"))
+        command.make_context(kind, list(args), parent=ctx)  # raises on an unknown option
+
+
 def test_plugins_lists_built_ins() -> None:
     res = inkmotion("plugins", "--json")
     assert res.returncode == 0, res.stderr

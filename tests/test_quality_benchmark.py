@@ -19,7 +19,7 @@ import typer
 from typer.testing import CliRunner
 
 from inkmotion.benchmarks import quality as bm
-from inkmotion.errors import InputError, SpecError
+from inkmotion.errors import InkmotionError, InputError, SpecError
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +145,8 @@ def test_columns_absent_from_every_row_are_left_out() -> None:
 
 def test_an_out_that_holds_files_is_refused(tmp_path: Path) -> None:
     (tmp_path / "mine.txt").write_text("keep me")
-    with pytest.raises(SpecError, match="already holds files"):
+    with pytest.raises(InkmotionError, match=r"already holds results \(mine.txt\); pass "
+                       "--force"):
         bm.run_benchmark(["text:hi"], tmp_path, steps=2, size=64)
     assert [p.name for p in tmp_path.iterdir()] == ["mine.txt"]
 

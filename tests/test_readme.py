@@ -9,7 +9,7 @@ no reason runs, so a new README command is tested the day it is written. The Pyt
 blocks run too, except the sketches of a plugin (``...`` bodies).
 
 One change is made to what runs, and only to save time: the optimising commands get
-``--steps 30`` (``benchmark``: ``--param steps=30``) unless the line sets its own steps.
+``--steps 30`` unless the line sets its own steps.
 Everything else (the inputs, ``sample:NAME``, the options, the output folders, the file
 the README shows as ``my_plotter.toml``) is as written.
 
@@ -141,7 +141,7 @@ def quick(command: str, cwd: Path = ROOT) -> str:
     if "--help" in words or "--steps" in words or any(w.startswith("steps=") for w in words):
         return command
     if words[:2] == ["inkmotion", "benchmark"]:
-        return f"{command} --param steps={QUICK_STEPS}"
+        return f"{command} --steps {QUICK_STEPS}"
     optimising = {"fit", "tag", "abstract"}
     if words[:2] == ["inkmotion", "run"] and (
             words[2:3] and words[2] in optimising or "--config" in words):
@@ -251,7 +251,7 @@ def test_quick_only_shortens_optimisations() -> None:
     assert quick("inkmotion run fit text:a --out r/a") == \
         f"inkmotion run fit text:a --out r/a --steps {QUICK_STEPS}"
     assert quick("inkmotion run fit text:a --steps 5 --out r/a").endswith("--out r/a")
-    assert quick("inkmotion benchmark text:a --out r/b").endswith(f"--param steps={QUICK_STEPS}")
+    assert quick("inkmotion benchmark text:a --out r/b").endswith(f"--steps {QUICK_STEPS}")
     assert quick("inkmotion run plot p.json --out r/p") == "inkmotion run plot p.json --out r/p"
     assert quick("inkmotion render p.json --out r.png") == "inkmotion render p.json --out r.png"
 

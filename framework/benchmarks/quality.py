@@ -316,7 +316,8 @@ def _init_worker(threads: int) -> None:
 def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
                   steps: int | None = None, size: int | None = None,
                   params: dict[str, Any] | None = None, console: Any = None,
-                  device: str = "cpu", seed: int = 0, batch: int = 1) -> dict:
+                  device: str = "cpu", seed: int = 0, batch: int = 1,
+                  force: bool = False) -> dict:
     """Fit every input into ``out/<item>/`` and write summary.{json,csv,md,html} in ``out``;
     print the aggregate table on ``console`` (a rich Console; None: stdout). Returns the
     summary (``items``, ``aggregate``, ``columns``, ``settings``).
@@ -325,16 +326,16 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     (:func:`run_items`), the batches taking the items in order.
 
     Raises :class:`~inkmotion.errors.InkmotionError` for a bad call (no inputs, an empty
-    folder, an invalid parameter, an ``out`` that already holds files) before anything
-    runs; a failing item is a row instead. ``out`` appears only once complete (module
-    docstring).
+    folder, an invalid parameter, an ``out`` that already holds results, unless ``force``)
+    before anything runs; a failing item is a row instead. ``out`` appears only once
+    complete (module docstring).
     """
     from rich.console import Console
 
     from inkmotion.devices import threads_per_job
     from inkmotion.jobs.kind import resolve
     from inkmotion.jobs.spec import JobSpec
-    from inkmotion.outputs import StagingDir
+    from inkmotion.outputs import StagingDir, refuse_to_overwrite
 
     console = console or Console()
     sources = expand_inputs(inputs)
@@ -351,7 +352,7 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     jobs = min(jobs, math.ceil(len(sources) / batch))
     threads = threads_per_job(jobs)
     out = Path(out)
-    check_out(out)
+    refuse_to_overwrite(out, force)
     created = [p for p in (out, *out.parents) if not p.exists()][1:]  # made by staging
     started = time.perf_counter()
     try:
@@ -374,16 +375,6 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
         raise
     print_aggregate(summary, console)
     return summary
-
-
-def check_out(out: Path) -> None:
-    """Refuse an ``out`` that is a file or a folder holding anything (the run would
-    replace it): one sentence naming it."""
-    if out.exists() and not out.is_dir():
-        raise SpecError(f"--out {out} is a file; give a folder for the benchmark.")
-    if out.is_dir() and any(out.iterdir()):
-        raise SpecError(f"--out {out} already holds files; give a new or empty folder, so "
-                        "nothing in it is replaced.")
 
 
 def _run_all(tasks: list[tuple[str, str, dict]], jobs: int, threads: int,

@@ -12,7 +12,7 @@ from rich.table import Table
 
 from inkmotion.benchmarks.figures import TARGETS, describe, show_value, verdict
 
-__all__ = ["DEFAULT_BENCHES", "TARGETS", "print_figures", "run_benchmarks"]
+__all__ = ["DEFAULT_BENCHES", "TARGETS", "figures_record", "print_figures", "run_benchmarks"]
 
 #: run when no ``--only`` is given; the others run only when named (queue: it starts
 #: redis-server and worker subprocesses, a few minutes; generation: CLIP ViT-B-32 jobs)
@@ -94,9 +94,10 @@ def _on(bench: Callable[..., dict], device: str) -> dict:
 
 def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
                    threads: int = 2, console: Console | None = None,
-                   device: str = "cpu") -> dict:
+                   device: str = "cpu", show: bool = True) -> dict:
     """Run the chosen benchmarks (:data:`DEFAULT_BENCHES` by default) on ``device`` with
-    ``threads`` torch threads; print them (:func:`print_figures`) and return them."""
+    ``threads`` torch threads; print them (:func:`print_figures`, unless not ``show``) and
+    return them."""
     import os
 
     from inkmotion.devices import resolve_device
@@ -127,8 +128,25 @@ def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
             os.environ.pop("INKMOTION_THREADS", None)
         else:
             os.environ["INKMOTION_THREADS"] = previous_env
-    print_figures(figures, console, f"inkmotion bench ({device}, {threads} CPU threads)")
+    if show:
+        print_figures(figures, console, f"inkmotion bench ({device}, {threads} CPU threads)")
     return figures
+
+
+def figures_record(figures: dict) -> dict[str, dict]:
+    """The figures as ``bench --json`` prints them: for each, its value, unit, what it
+    measures and, where it has one, its target (``bound``, ``cmp``) and whether it was
+    ``met`` (a figure that is not a finite number is not), as the table says in words."""
+    record = {}
+    for key, value in figures.items():
+        unit, what = describe(key)
+        entry: dict = {"value": value, "unit": unit, "what": what}
+        target = TARGETS.get(key)
+        if target is not None:
+            met, words = verdict(value, *target, unit)
+            entry.update(bound=target[0], cmp=target[1], met=met, verdict=words)
+        record[key] = entry
+    return record
 
 
 def print_figures(figures: dict, console: Console, title: str) -> None:

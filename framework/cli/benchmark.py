@@ -4,6 +4,7 @@ command runs, so start-up stays light."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -15,6 +16,7 @@ from inkmotion.cli.errors import fail
 from inkmotion.errors import InkmotionError
 
 out = Console()
+err = Console(stderr=True)
 #: what --steps and --size say of their default; ``--help`` adds the fit's number
 FIT_DEFAULT = "the fit's"
 
@@ -60,6 +62,11 @@ def benchmark_cmd(
              "PLUGIN.OPTION sets a plugin's option, e.g. initialiser.threshold=20.")] = None,
     device: Annotated[str, typer.Option(help="cpu, cuda or auto.")] = "cpu",
     seed: Annotated[int, typer.Option(min=0, help="Seed of every fit.")] = 0,
+    force: Annotated[bool, typer.Option(
+        "--force", help="Replace the results already in --out.")] = False,
+    as_json: Annotated[bool, typer.Option(
+        "--json", help="Print the summary (items and aggregate) as JSON; the table and the "
+        "progress go to stderr.")] = False,
 ) -> None:
     """Fit every input and report how good the fits are, per item and over the set.
 
@@ -85,15 +92,18 @@ def benchmark_cmd(
     try:
         params = dict(parse_param(p) for p in param or [])
         summary = run_benchmark(inputs, out_dir, jobs=jobs, steps=steps, size=size,
-                                params=params, console=out, device=device, seed=seed,
-                                batch=batch)
+                                params=params, console=err if as_json else out,
+                                device=device, seed=seed, batch=batch, force=force)
     except InkmotionError as exc:
         fail(exc)
     except KeyboardInterrupt:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
         raise typer.Exit(130) from None
-    out.print(f"summaries in {out_dir} (summary.md, summary.html, summary.csv, summary.json)",
-              highlight=False)
+    (err if as_json else out).print(
+        f"summaries in {out_dir} (summary.md, summary.html, summary.csv, summary.json)",
+        highlight=False)
+    if as_json:
+        print(json.dumps(summary, indent=1, default=str))
     failed = summary["totals"]["failed"]
     if failed:
         fail(f"{failed} of {summary['totals']['items']} items failed; their errors are in "

@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from inkmotion.cli.run import ForceOpt, OutOpt, RecordOpt
+from inkmotion.cli.run import ForceOpt, JsonOpt, OutOpt, RecordOpt
 
 
 def evaluate_cmd(
@@ -26,6 +26,7 @@ def evaluate_cmd(
     ] = None,
     record: RecordOpt = False,
     force: ForceOpt = False,
+    as_json: JsonOpt = False,
 ) -> None:
     """Compare ΣΛ with path-constrained minimum jerk and time-optimal (TOPP-RA) timings.
 
@@ -34,16 +35,16 @@ def evaluate_cmd(
 
     Examples:
 
-      inkmotion evaluate results/49867/plan.json --out results/49867-eval
+      inkmotion evaluate results/tag/plan.json --out results/tag-eval
 
-      inkmotion evaluate plan.json --vmax 0.5 --amax 5 --out r/eval
+      inkmotion evaluate results/tag/plan.json --vmax 0.5 --amax 5 --out results/fast-eval
 
-      inkmotion evaluate plan.json --recording tags/49867.json --out r/eval
+      inkmotion evaluate results/tag/plan.json --recording sample:tempt-1 --out results/rec
     """
     from inkmotion.cli.run import _run_kind
 
-    values = {"out_dir": out_dir, "record": record, "force": force, "config": None, "v_max": vmax,
-              "a_max": amax, "path": path, "rate": rate,
+    values = {"out_dir": out_dir, "record": record, "force": force, "as_json": as_json,
+              "config": None, "v_max": vmax, "a_max": amax, "path": path, "rate": rate,
               "setup": str(setup) if setup else None,
               "recording": str(recording) if recording else None}
     _run_kind("evaluate", [plan], values)

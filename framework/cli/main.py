@@ -37,6 +37,13 @@ from inkmotion.cli import (
 from inkmotion.cli.errors import EXIT_USER, fail, report
 from inkmotion.errors import InkmotionError
 
+try:  # typer vendors click from 0.2x on; its usage errors derive from TyperException
+    from typer import Abort
+    from typer import TyperException as UsageProblem
+except ImportError:  # an older typer, on click itself
+    from click import Abort  # type: ignore[assignment]
+    from click import ClickException as UsageProblem  # type: ignore[assignment]
+
 app = typer.Typer(
     name="inkmotion",
     help="Turn a drawing, a word or a photo into a human-like sigma-lognormal drawing motion.",
@@ -86,6 +93,8 @@ def bench_cmd(
     threads: Annotated[int, typer.Option(help="torch threads (the targets assume 2).")] = 2,
     device: Annotated[str, typer.Option(
         help="cpu, cuda or auto: where kinematics, raster and fit run.")] = "cpu",
+    as_json: Annotated[bool, typer.Option(
+        "--json", help="Print the figures as JSON (value, unit, target, met).")] = False,
 ) -> None:
     """Print speed figures: kinematics, renderers, a full fit, the recording's cost.
 
@@ -104,14 +113,19 @@ def bench_cmd(
       inkmotion bench --only queue
 
       inkmotion bench --only generation --device cuda
-    """
-    from inkmotion.benchmarks.suite import run_benchmarks
 
-    try:
-        run_benchmarks(only or None, fit_input=fit_input, threads=threads, console=out,
-                       device=device)
+      inkmotion bench --only raster --json > raster.json
+    """
+    from inkmotion.benchmarks.suite import figures_record, run_benchmarks
+
+    try:  # with --json the progress goes to stderr, the figures alone to stdout
+        figures = run_benchmarks(only or None, fit_input=fit_input, threads=threads,
+                                 console=Console(stderr=True) if as_json else out,
+                                 device=device, show=not as_json)
     except InkmotionError as exc:
         fail(exc)
+    if as_json:
+        print(json.dumps(figures_record(figures), indent=1))
 
 
 def _register_groups() -> None:
@@ -131,7 +145,29 @@ def main() -> None:
     from inkmotion.cli.help_text import reflow_tree
 
     try:
-        reflow_tree(typer.main.get_command(app))()
+        code = reflow_tree(typer.main.get_command(app)).main(standalone_mode=False)
     except InkmotionError as exc:  # a last guard: user errors never show a traceback
         report(exc)
         sys.exit(EXIT_USER)
+    except UsageProblem as exc:  # a usage error: the same one line as the others
+        sys.exit(usage_error(exc))
+    except Abort:  # Ctrl-C outside a job (a job says what it kept itself)
+        report("interrupted.")
+        sys.exit(130)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def usage_error(exc: UsageProblem) -> int:
+    """Report a command line click could not take (an unknown option or command, a
+    missing argument, a value of the wrong type) as ``error: …`` with where to look;
+    returns its exit status (2)."""
+    message = exc.format_message().rstrip(".")
+    if not message:  # a group called with nothing: click printed its help, which is the answer
+        return exc.exit_code
+    message = message[:1].lower() + message[1:]
+    ctx = getattr(exc, "ctx", None)
+    if ctx is not None:  # after click's own question ("Did you mean 'jobs'?") a new sentence
+        where = f"`{ctx.command_path} --help` lists what it takes"
+        message += f" {where[:1].upper()}{where[1:]}" if message.endswith("?") else f"; {where}"
+    report(message + ".")
+    return exc.exit_code

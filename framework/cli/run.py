@@ -14,6 +14,7 @@ takes the same options (``--steps 100`` overrides job.json's steps as with ``run
 from __future__ import annotations
 
 import inspect
+import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -41,10 +42,15 @@ ForceOpt = Annotated[bool, typer.Option(
     "--force", help="Replace the results already in --out.", rich_help_panel=IO_PANEL)]
 RecordOpt = Annotated[bool, typer.Option(help="Write recording.rrd (rerun).",
                                          rich_help_panel=IO_PANEL)]
+JsonOpt = Annotated[bool, typer.Option(
+    "--json", help="Print report.json instead of the one-line summary.",
+    rich_help_panel=IO_PANEL)]
 
 
-def execute(spec: Any, out_dir: Path, record: bool) -> None:
-    """Run ``spec`` through the job shell with a progress bar, print where results are."""
+def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> None:
+    """Run ``spec`` through the job shell with a progress bar, print where results are
+    (``as_json``: print report.json to stdout instead; the progress and warnings go to
+    stderr either way)."""
     from inkmotion.jobs.shell import run_job
 
     try:
@@ -54,9 +60,14 @@ def execute(spec: Any, out_dir: Path, record: bool) -> None:
     except KeyboardInterrupt:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
         raise typer.Exit(130) from None
-    typer.echo(summary(report))
+    if as_json:
+        print(json.dumps(report, indent=1, default=str))
+    else:
+        typer.echo(summary(report))
     for warning in report.get("warnings") or []:
         typer.secho(f"warning: {warning}", fg="yellow", err=True)
+    if as_json:
+        return
     files = sorted(p.name for p in Path(out_dir).iterdir())
     typer.echo(f"results in {out_dir} ({', '.join(files)})")
 
@@ -76,7 +87,7 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
     from inkmotion.outputs import refuse_to_overwrite
 
     out_dir, record, config = values.pop("out_dir"), values.pop("record"), values.pop("config")
-    force = values.pop("force", False)
+    force, as_json = values.pop("force", False), values.pop("as_json", False)
     if out_dir is None:
         fail("give the output folder: --out DIR.", code=EXIT_USAGE)
     try:
@@ -85,7 +96,7 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
         resolve(spec)
     except InkmotionError as exc:
         fail(exc)
-    execute(spec, out_dir, record)
+    execute(spec, out_dir, record, as_json)
 
 
 _EXTRA = [
@@ -94,6 +105,8 @@ _EXTRA = [
                       annotation=ForceOpt),
     inspect.Parameter("record", inspect.Parameter.KEYWORD_ONLY, default=True,
                       annotation=RecordOpt),
+    inspect.Parameter("as_json", inspect.Parameter.KEYWORD_ONLY, default=False,
+                      annotation=JsonOpt),
 ]
 
 
@@ -120,6 +133,8 @@ def run_main(
     force: Annotated[bool, typer.Option(
         "--force", help="Replace the results already in --out.")] = False,
     record: Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")] = True,
+    as_json: Annotated[bool, typer.Option(
+        "--json", help="Print report.json instead of the one-line summary.")] = False,
 ) -> None:
     """Run a job in this process. With --config, the options are those of the job's kind
     (the group hands them to ``run KIND``, see :class:`KindGroup`); this callback
