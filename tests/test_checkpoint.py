@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from inkmotion.jobs.checkpoint import Checkpoints
+from inkmotion.jobs.checkpoint import Checkpoints, remove_checkpoint
 from inkmotion.jobs.shell import run_job
 from inkmotion.jobs.spec import JobSpec
 
@@ -84,6 +84,19 @@ def test_a_torn_checkpoint_is_ignored(tmp_path: Path) -> None:
     assert ck.load() == {"x": 1, "step": 5}
     assert Checkpoints(path, {"a": 2}).load() is None  # another spec
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
+
+
+def test_a_finished_job_leaves_no_half_written_checkpoint(tmp_path: Path) -> None:
+    """A worker killed while it saved leaves ``checkpoint.pt.partial-PID``; the attempt
+    that finishes the job removes it with the checkpoint (seen once in the worker kill
+    test, the kill landing inside torch.save)."""
+    path = tmp_path / "checkpoint.pt"
+    ck = Checkpoints(path, {"a": 1}, every_steps=5, every_s=1e9)
+    ck.save(5, {"x": 1})
+    (tmp_path / "checkpoint.pt.partial-12107").write_bytes(b"torn")  # a killed writer's
+    (tmp_path / "report.json").write_text("{}")  # not the checkpoint's: kept
+    remove_checkpoint(path)  # as the worker does once the job's results are committed
+    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]
 
 
 TINY_CLIP = str(Path(__file__).parent / "data" / "clip" / "tiny-vit.json")

@@ -29,6 +29,7 @@ from typing import Any
 from celery.exceptions import SoftTimeLimitExceeded
 from celery.signals import worker_process_init, worker_ready, worker_shutting_down
 
+from inkmotion.jobs.checkpoint import remove_checkpoint
 from inkmotion.workers.app import TASK_NAME, app
 from inkmotion.workers.leases import (
     SHUTDOWN,
@@ -339,7 +340,8 @@ def _run_together(records: list[Any], owner: str, settings: Any) -> str:
             log.error("job %s failed: %s", r.id, message)
             store.mark_failed(r.id, message, db)
             continue
-        (t.checkpoint or Path()).unlink(missing_ok=True)
+        if t.checkpoint is not None:
+            remove_checkpoint(t.checkpoint)
         done = with_db_retry(store.mark_succeeded, r.id, str(t.out_dir), db,
                              metrics=outcome.get("metrics"), owner=owner)
         if r.id == ids[0] and done:
@@ -359,5 +361,5 @@ def _execute(job_id: str, spec_dict: dict, artifacts: Path, db: str, owner: str,
     report = run_job(spec, artifacts, observers=[observer], record=True, recording_id=job_id,
                      checkpoint=checkpoint, checkpoint_every=settings.checkpoint_steps,
                      checkpoint_s=settings.checkpoint_s, checkpoint_now=SHUTDOWN)
-    checkpoint.unlink(missing_ok=True)  # the result is complete: nothing to resume
+    remove_checkpoint(checkpoint)  # the result is complete: nothing to resume
     return report

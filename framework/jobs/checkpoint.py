@@ -94,5 +94,14 @@ class Checkpoints:
         return dict(saved["state"], step=int(saved["step"]))
 
     def remove(self) -> None:
-        """Delete the checkpoint (the job finished)."""
-        self.path.unlink(missing_ok=True)
+        """Delete the checkpoint (the job finished): :func:`remove_checkpoint`."""
+        remove_checkpoint(self.path)
+
+
+def remove_checkpoint(path: Path) -> None:
+    """Delete the checkpoint file ``path`` and the half-written ones (``NAME.partial-PID``)
+    of attempts killed while they saved, so that nothing of a finished job's checkpoints is
+    left beside its results."""
+    path.unlink(missing_ok=True)
+    for partial in path.parent.glob(f"{path.name}.partial-*"):
+        partial.unlink(missing_ok=True)
