@@ -2,8 +2,8 @@
 
 A copy of what a clone holds (the tracked files, and those git would add) is made in a
 temporary folder and committed there; every ``bash`` line of the README runs in it, as a
-user would type it, one after the other (later lines use the results of earlier ones:
-``results/hello/plan.json``). A line is left out only for a reason listed in
+user would type it, each after the earlier lines whose results it uses
+(``results/hello/plan.json``), two at a time. A line is left out only for a reason listed in
 :data:`NOT_RUN` (a service, a robot, a GPU, CLIP weights, a window); a line that matches
 no reason runs, so a new README command is tested the day it is written. The Python
 blocks run too, except the sketches of a plugin (``...`` bodies).
@@ -30,6 +30,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,6 +42,8 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 #: the steps the optimising commands run with here (their defaults: hundreds)
 QUICK_STEPS = 30
+#: README lines run at once (the machine's two cores; inkmotion shares them out itself)
+PARALLEL = 2
 #: (pattern of a command line, why it is not run here); the first match wins
 NOT_RUN: tuple[tuple[str, str], ...] = (
     (r"^make (test|gallery)\b", "builds a virtual environment and runs for many minutes "
@@ -195,24 +198,53 @@ def run_line(line: Line, cwd: Path, env: dict[str, str]) -> subprocess.Completed
                           capture_output=True, text=True, timeout=900)
 
 
+def results_read_or_written(line: Line) -> set[str]:
+    """The folders under ``results/`` that ``line`` names (``results/tag`` for
+    ``results/tag/plan.json``); ``{"results"}`` when it names the whole folder."""
+    return set(re.findall(r"(?<![\w/.-])results(?:/[\w.-]+)?", line.text))
+
+
+def after(line: Line, earlier: list[Line]) -> list[int]:
+    """The indices of the ``earlier`` lines ``line`` must wait for: those that name one of
+    its results folders, all of them when either names the whole ``results``."""
+    mine = results_read_or_written(line)
+    return [i for i, other in enumerate(earlier)
+            if (theirs := results_read_or_written(other)) & mine
+            or "results" in mine and theirs or "results" in theirs]
+
+
 def run_readme(folder: Path, report: list[str]) -> list[str]:
-    """Run the README in a fresh copy made in ``folder``; ``report`` gets a line per README
-    command; returns the failures, each with its output's tail."""
+    """Run the README in a fresh copy made in ``folder``, :data:`PARALLEL` lines at a time,
+    each after the earlier lines whose results it names (:func:`after`); ``report`` gets a
+    line per README command, in the README's order; returns the failures, each with its
+    output's tail."""
     text = README.read_text()
     copy = fresh_copy(folder / "clone")
     env = environment(folder / "data")
     failures = []
     machine = copy / MACHINE_FILE[0]
     machine.write_text(machine_file(text))
-    for line in command_lines(text):
-        shown = line.text.splitlines()[0] + (" ..." if "\n" in line.text else "")
-        reason = why_not_run(line)
-        if reason is not None:
-            report.append(f"README:{line.number:<4} not run   {shown}\n{'':20}({reason})")
-            continue
+    lines = command_lines(text)
+    running: list[Future | None] = []
+
+    def run_after(line: Line, waits: list[Future]) -> tuple[subprocess.CompletedProcess, float]:
+        for wait in waits:  # submitted earlier, so already started: no deadlock
+            wait.result()
         started = time.perf_counter()
-        res = run_line(line, copy, env)
-        took = time.perf_counter() - started
+        return run_line(line, copy, env), time.perf_counter() - started
+
+    with ThreadPoolExecutor(PARALLEL) as pool:
+        for i, line in enumerate(lines):
+            waits = [running[j] for j in after(line, lines[:i]) if running[j] is not None]
+            running.append(None if why_not_run(line) is not None
+                           else pool.submit(run_after, line, waits))
+    for line, done in zip(lines, running, strict=True):
+        shown = line.text.splitlines()[0] + (" ..." if "\n" in line.text else "")
+        if done is None:
+            report.append(f"README:{line.number:<4} not run   {shown}\n{'':20}"
+                          f"({why_not_run(line)})")
+            continue
+        res, took = done.result()
         answers = next((codes for pattern, codes in ANSWERS if re.search(pattern, line.text)),
                        (0,))
         status = (f"ok ({res.returncode})" if res.returncode in answers and res.returncode
