@@ -179,6 +179,9 @@ def test_ctrl_c_leaves_nothing(tmp_path: Path, jobs: str) -> None:
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert proc.returncode == 130, err
+    # 130, or killed by the SIGINT itself (-2): a shell shows both as 130. Seen once in a
+    # full run under load: the command had cleaned up and said so, then ended by the
+    # signal; not reproduced in 39 runs of the case alone, 31 of them beside two busy cores
+    assert proc.returncode in (130, -signal.SIGINT), err
     assert f"interrupted; nothing was written to {out}" in err
     assert list(tmp_path.iterdir()) == []
