@@ -151,24 +151,19 @@ def figures_record(figures: dict) -> dict[str, dict]:
 
 def print_figures(figures: dict, console: Console, title: str) -> None:
     """The table (figure, value with its unit, target and whether it was met, in words and
-    in colour), then what each figure is, one line each."""
+    in colour), then what each figure is, one line each: :func:`figures_record` shown."""
+    record = figures_record(figures)
     table = Table("figure", "value", "target", title=title)
-    legend = []
-    for key, value in figures.items():
-        unit, what = describe(key)
-        target = TARGETS.get(key)
-        words = ""
-        if target is not None:
-            met, words = verdict(value, *target, unit)
-            words = f"[{'green' if met else 'red'}]{words}[/]"
-        table.add_row(key, show_value(value, unit), words)
-        legend.append((key, what))
+    for key, entry in record.items():
+        words = (f"[{'green' if entry['met'] else 'red'}]{entry['verdict']}[/]"
+                 if "verdict" in entry else "")
+        table.add_row(key, show_value(entry["value"], entry["unit"]), words)
     console.print(table)
-    if legend:
+    if record:
         console.print("What the figures are:", highlight=False)
         grid = Table.grid(padding=(0, 1))
         grid.add_column(no_wrap=True, style="bold")
         grid.add_column()
-        for key, what in legend:
-            grid.add_row(f"  {key}", what)
+        for key, entry in record.items():
+            grid.add_row(f"  {key}", entry["what"])
         console.print(grid, highlight=False)

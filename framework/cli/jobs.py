@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape  # a label or an error may hold `[`, rich's markup
 
 from inkmotion.cli.errors import EXIT_TIMEOUT, EXIT_USER, fail, report
 from inkmotion.errors import InkmotionError
@@ -121,16 +122,9 @@ def jobs_table(records: list[JobRecord], width: int) -> Any:
         style = STATUS_STYLE.get(status, "")
         steps = f"{r.step}/{r.total}" if r.total else ""
         row = [r.id[:12], f"[{style}]{status}[/]", r.kind, steps, str(r.attempts), _age(r),
-               _escape(r.label)]
-        table.add_row(*row, *([_escape(r.worker_host or "")] if workers else []))
+               escape(r.label)]
+        table.add_row(*row, *([escape(r.worker_host or "")] if workers else []))
     return table
-
-
-def _escape(text: str) -> str:
-    """``text`` shown as it is (a label may hold ``[``, rich's markup)."""
-    from rich.markup import escape
-
-    return escape(text)
 
 
 @jobs_app.command("show")
@@ -147,7 +141,7 @@ def jobs_show(job_id: JobIdArg, as_json: JsonOpt = False) -> None:
     for key in shown:
         value = _figures(d[key]) if key in ("losses", "metrics") else str(d[key])
         # one line each, wrapped by the terminal: an id or a path stays whole to copy
-        out.print(f"[bold]{key:<{width}}[/]  {_escape(value)}", soft_wrap=True,
+        out.print(f"[bold]{key:<{width}}[/]  {escape(value)}", soft_wrap=True,
                   highlight=False)
 
 
@@ -155,9 +149,9 @@ def _finished_line(r: JobRecord) -> str:
     style = STATUS_STYLE.get(r.status, "")
     line = f"{r.id}: [{style}]{r.status}[/]"
     if r.status == "succeeded":
-        line += f" -> {_escape(r.artifact_dir or '')}"
+        line += f" -> {escape(r.artifact_dir or '')}"
     elif r.error:
-        line += f": {_escape(r.error)}"
+        line += f": {escape(r.error)}"
     return line
 
 

@@ -35,16 +35,16 @@ Examples:
   inkmotion run --config results/tag/job.json --out results/again --steps 100
 """
 
+OUT_HELP = "Output folder (required; written whole or not at all)."
+FORCE_HELP = "Replace the results already in --out."
+RECORD_HELP = "Write recording.rrd (rerun)."
+JSON_HELP = "Print report.json instead of the one-line summary."
+
 OutOpt = Annotated[Optional[Path], typer.Option(  # noqa: UP045
-    "--out", help="Output folder (required; written whole or not at all).",
-    rich_help_panel=IO_PANEL)]
-ForceOpt = Annotated[bool, typer.Option(
-    "--force", help="Replace the results already in --out.", rich_help_panel=IO_PANEL)]
-RecordOpt = Annotated[bool, typer.Option(help="Write recording.rrd (rerun).",
-                                         rich_help_panel=IO_PANEL)]
-JsonOpt = Annotated[bool, typer.Option(
-    "--json", help="Print report.json instead of the one-line summary.",
-    rich_help_panel=IO_PANEL)]
+    "--out", help=OUT_HELP, rich_help_panel=IO_PANEL)]
+ForceOpt = Annotated[bool, typer.Option("--force", help=FORCE_HELP, rich_help_panel=IO_PANEL)]
+RecordOpt = Annotated[bool, typer.Option(help=RECORD_HELP, rich_help_panel=IO_PANEL)]
+JsonOpt = Annotated[bool, typer.Option("--json", help=JSON_HELP, rich_help_panel=IO_PANEL)]
 
 
 def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> None:
@@ -60,16 +60,12 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> No
     except KeyboardInterrupt:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
         raise typer.Exit(130) from None
-    if as_json:
-        print(json.dumps(report, indent=1, default=str))
-    else:
-        typer.echo(summary(report))
+    print(json.dumps(report, indent=1, default=str) if as_json else summary(report))
     for warning in report.get("warnings") or []:
         typer.secho(f"warning: {warning}", fg="yellow", err=True)
-    if as_json:
-        return
-    files = sorted(p.name for p in Path(out_dir).iterdir())
-    typer.echo(f"results in {out_dir} ({', '.join(files)})")
+    if not as_json:
+        files = sorted(p.name for p in Path(out_dir).iterdir())
+        typer.echo(f"results in {out_dir} ({', '.join(files)})")
 
 
 def summary(report: dict) -> str:
@@ -128,13 +124,10 @@ def run_main(
     config: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         "--config", help="A job.json to reproduce; every option of its kind's `run KIND` "
         "applies (e.g. --steps 100 overrides its steps).")] = None,
-    out_dir: Annotated[Optional[Path], typer.Option(  # noqa: UP045
-        "--out", help="Output folder (required; written whole or not at all).")] = None,
-    force: Annotated[bool, typer.Option(
-        "--force", help="Replace the results already in --out.")] = False,
-    record: Annotated[bool, typer.Option(help="Write recording.rrd (rerun).")] = True,
-    as_json: Annotated[bool, typer.Option(
-        "--json", help="Print report.json instead of the one-line summary.")] = False,
+    out_dir: Annotated[Optional[Path], typer.Option("--out", help=OUT_HELP)] = None,  # noqa: UP045
+    force: Annotated[bool, typer.Option("--force", help=FORCE_HELP)] = False,
+    record: Annotated[bool, typer.Option(help=RECORD_HELP)] = True,
+    as_json: Annotated[bool, typer.Option("--json", help=JSON_HELP)] = False,
 ) -> None:
     """Run a job in this process. With --config, the options are those of the job's kind
     (the group hands them to ``run KIND``, see :class:`KindGroup`); this callback

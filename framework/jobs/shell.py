@@ -78,6 +78,14 @@ class Job:
     #: a job kind that supports it saves its state there and resumes from it
     checkpoints: Any = None
 
+    def input_file(self, name: str) -> str:
+        """The file of input ``name``: a ``sample:NAME`` is the file that ships with
+        inkmotion (the spec keeps the name, so job.json reproduces on any installation),
+        any other value is the path as given."""
+        from inkmotion.samples import locate
+
+        return locate(self.spec.inputs[name])
+
     def plugin(self, choice: PluginChoice) -> Any:
         """The plugin object a parameter chose."""
         return self.resolved.plugin(choice)

@@ -46,11 +46,10 @@ def run_draw(job: Job) -> dict[str, Any]:
     """Connect, plan, check, approach, draw, write (module docstring)."""
     from inkmotion.robot import franka
     from inkmotion.robot.program import plan_program
-    from inkmotion.samples import locate
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
-    drawing = Drawing.load(locate(job.spec.inputs["plan"]))
+    drawing = Drawing.load(job.input_file("plan"))
     setup = job_setup(p.setup, p.v_max, p.a_max)
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
 

@@ -34,11 +34,10 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     from inkmotion.evaluation.human import human_agreement_of_traces
     from inkmotion.evaluation.plots import plot_minima, plot_speeds
     from inkmotion.kinds.read import read_input
-    from inkmotion.samples import locate
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
-    drawing = Drawing.load(locate(job.spec.inputs["plan"]))
+    drawing = Drawing.load(job.input_file("plan"))
     scale = paper_scale(drawing.canvas, p.setup)
     indices = list(range(len(drawing.plans))) if p.path < 0 else [choose_path(drawing, p.path)]
     shown = choose_path(drawing, p.path)  # the longest, or the one asked for: the plots

@@ -196,10 +196,9 @@ def run_abstract(job: Job) -> dict[str, Any]:
 
     from inkmotion.images.load import load_image
     from inkmotion.plugin_host.protocols import JobInputs, Reference
-    from inkmotion.samples import locate
 
     p = job.params
-    photo = load_image(locate(job.spec.inputs["image"]), p.size, device=job.device)  # (3, H, W)
+    photo = load_image(job.input_file("image"), p.size, device=job.device)  # (3, H, W)
     clip = load_job_clip(p, job.device)  # after the photo: a bad file costs no model
     canvas = (int(photo.shape[2]), int(photo.shape[1]))
     caption = p.caption or None

@@ -62,11 +62,10 @@ def run_plot(job: Job) -> dict[str, Any]:
     from inkmotion.plotter.program import build_program
     from inkmotion.plotter.svg import write_plot_svg
     from inkmotion.plotter.timing import time_for_plotter
-    from inkmotion.samples import locate
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
-    plan_file = locate(job.spec.inputs["plan"])
+    plan_file = job.input_file("plan")
     drawing = Drawing.load(plan_file)
     pens = plan_pens(plan_file, len(drawing.plans))
     machine = load_machine(p.machine, p.machine_file or None)

@@ -56,11 +56,10 @@ def run_simulate(job: Job) -> dict[str, Any]:
     """Load the plan and the setup, plan the robot program, run every backend; the report
     holds the timing, the joint trajectory's figures, the setup and each backend's figures."""
     from inkmotion.robot.program import plan_program
-    from inkmotion.samples import locate
     from inkmotion.sigma_lognormal import Drawing
 
     p = job.params
-    drawing = Drawing.load(locate(job.spec.inputs["plan"]))
+    drawing = Drawing.load(job.input_file("plan"))
     setup = job_setup(p.setup, p.v_max, p.a_max)
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
     total = job.total_steps
