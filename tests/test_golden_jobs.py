@@ -1,10 +1,11 @@
 """Golden job files of spec version 4, one per built-in kind, written before the job kinds
-moved to ``inkmotion.kinds`` (issue 21): each still reproduces its results on the CPU —
-the plans of fit, tag and abstract bit for bit, the simulated arm's joint, Cartesian and
-executed trajectories byte for byte, the evaluation's table exactly — and every figure of
-its report.json but the wall-clock ones is unchanged. One key was added to the files since:
-the tag and abstract reports record the random-weights warning under ``warnings`` (issue 24:
-a job run on random CLIP weights says so in its report, not only once on the console).
+moved to ``inkmotion.kinds`` (issue 21): each still reproduces its results on the CPU,
+within what another machine's kernels move them (below) — the plans of fit, tag and
+abstract, the simulated arm's joint, Cartesian and executed trajectories, the evaluation's
+table, and every figure of its report.json but the wall-clock ones. One key was added to
+the files since: the tag and abstract reports record the random-weights warning under
+``warnings`` (issue 24: a job run on random CLIP weights says so in its report, not only
+once on the console).
 
 The files are as ``inkmotion run`` wrote them: inputs relative to tests/data/v4_jobs, the
 tiny CLIP config relative to the repository, random weights as recorded, the abstraction's
@@ -12,19 +13,25 @@ tour by elkai (deterministic, where fast-tsp's time budget is not). The results 
 the thread count in the last bits, so they hold for the 2 torch threads of the machines
 that wrote them (``INKMOTION_THREADS=2``, set here).
 
-Bits also depend on the CPU: oneDNN, OpenBLAS and MuJoCo pick their kernels by instruction
-set, so a float32 CLIP product or a joint solve differs in its last bits on another
-machine, and an optimiser or an iterative solver carries that on. The fit's plan stays
-bit for bit (measured on two machines); the others are compared within ``PLAN_TOLERANCE_PX``
-and ``RELATIVE``, each a few times what two machines were measured to differ by (tag: 1.5e-5
-px, abstract: 1.1e-2 px after 8 CLIP-visual steps; report figures: tag 4e-7, abstract
-9e-5, simulate 7e-6, evaluate 1e-2 relative, the evaluation's mean squared jerk being a
-sum of squared third differences). A change of behaviour moves them by far more."""
+Bits also depend on the CPU: oneDNN, MKL, OpenBLAS and MuJoCo pick their kernels by
+instruction set, so a float32 product or a joint solve differs in its last bits on another
+machine, and an optimiser or an iterative solver carries that on. The plans of tag and
+abstract are compared target by target within ``PLAN_TOLERANCE_PX``, the report figures
+within ``RELATIVE``, each a few times what two machines were measured to differ by (tag:
+1.5e-5 px, abstract: 1.1e-2 px after 8 CLIP-visual steps; report figures: tag 4e-7,
+abstract 9e-5, simulate 7e-6, evaluate 1e-2 relative, the evaluation's mean squared jerk
+being a sum of squared third differences). The fit was bit for bit on the first two
+machines and not on a third (an AVX-512 FP16 Xeon), where its virtual targets moved up to
+0.09 px and its report figures up to 0.6 % under four MKL code paths: the fit's plan is
+compared as drawn motion (``plan_compare``), its figures within 3 %, and the numbers
+quoted in its edits' explanations within that or their last printed digit. A change of
+behaviour moves them by far more."""
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -32,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from plan_compare import assert_same_motion
 
 pytestmark = pytest.mark.slow
 
@@ -52,10 +60,13 @@ def figures(value: object) -> object:
     return value
 
 
-#: px: how far a plan's numbers may move between machines (fit: not at all)
-PLAN_TOLERANCE_PX = {"fit": 0.0, "tag": 1e-3, "abstract": 0.05}
+#: px: how far a plan's virtual targets may move between machines (the fit's: see
+#: ``plan_compare``, its motion is compared instead)
+PLAN_TOLERANCE_PX = {"tag": 1e-3, "abstract": 0.05}
 #: relative tolerance of the report's figures between machines
-RELATIVE = {"fit": 0.0, "tag": 1e-5, "abstract": 1e-3, "simulate": 1e-4, "evaluate": 5e-2}
+RELATIVE = {"fit": 3e-2, "tag": 1e-5, "abstract": 1e-3, "simulate": 1e-4, "evaluate": 5e-2}
+#: a number quoted in a report's sentence (an edit's explanation)
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 
 
 def assert_close(new: object, old: object, rel: float, where: str = "") -> None:
@@ -70,8 +81,19 @@ def assert_close(new: object, old: object, rel: float, where: str = "") -> None:
             assert_close(a, b, rel, f"{where}[{i}]")
     elif isinstance(old, float) and not isinstance(old, bool) and rel > 0:
         assert new == pytest.approx(old, rel=rel, abs=1e-12), where
+    elif isinstance(old, str) and rel > 0:
+        assert_same_sentence(new, old, rel, where)
     else:
         assert new == old, where
+
+
+def assert_same_sentence(new: object, old: str, rel: float, where: str) -> None:
+    """``new`` is the sentence ``old`` with each number in it within ``rel`` of the old one
+    or one unit of its last printed digit."""
+    assert isinstance(new, str) and NUMBER.split(new) == NUMBER.split(old), where
+    for a, b in zip(NUMBER.findall(new), NUMBER.findall(old), strict=True):
+        digit = 10.0 ** -len(b.partition(".")[2])
+        assert abs(float(a) - float(b)) <= rel * abs(float(b)) + digit, f"{where}: {a} ≠ {b}"
 
 
 def column_statistics(path: Path) -> dict[str, list[float]]:
@@ -106,14 +128,15 @@ def rerun(tmp_path_factory) -> Path:
     return work / "new"
 
 
-@pytest.mark.parametrize("kind", ["fit", "tag", "abstract"])
+def test_the_golden_fit_draws_the_same_motion(rerun: Path) -> None:
+    assert_same_motion(rerun / "fit" / "plan.json", GOLDEN / "fit" / "plan.json")
+
+
+@pytest.mark.parametrize("kind", ["tag", "abstract"])
 def test_a_golden_job_reproduces_its_plan(rerun: Path, kind: str) -> None:
-    new, old = (rerun / kind / "plan.json").read_bytes(), (GOLDEN / kind / "plan.json").read_bytes()
     tolerance = PLAN_TOLERANCE_PX[kind]
-    if tolerance == 0.0:
-        assert new == old
-        return
-    a, b = json.loads(new), json.loads(old)
+    a = json.loads((rerun / kind / "plan.json").read_text())
+    b = json.loads((GOLDEN / kind / "plan.json").read_text())
     assert a["canvas"] == b["canvas"] and len(a["paths"]) == len(b["paths"])
     for pa, pb in zip(a["paths"], b["paths"], strict=True):
         assert pa["width"] == pb["width"]
