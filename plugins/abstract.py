@@ -29,7 +29,8 @@ class AbstractKind:
     name = "abstract"
     description = "Draw a photo as one continuous ΣΛ stroke: saliency, TSP tour, CLIPasso loss."
     queue = "optimise"
-    inputs = (InputSpec("image", "A photo: PNG or JPEG, any size, grey, colour or with alpha.",
+    inputs = (InputSpec("image", "A photo (PNG or JPEG, any size, grey, colour or with "
+                                 "alpha) or sample:NAME.",
                         form="file"),)
     Params = AbstractParams
     examples = (

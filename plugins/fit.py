@@ -23,7 +23,8 @@ class FitKind:
     name = "fit"
     description = "Fit a ΣΛ motion to a drawing: a GML/JSON tag, an SVG or text:WORD."
     queue = "optimise"
-    inputs = (InputSpec("drawing", "GML/JSON/SVG file, or text:WORD."),)
+    inputs = (InputSpec("drawing", "A GML/JSON/SVG file, sample:NAME (`inkmotion samples`) "
+                                 "or text:WORD."),)
     Params = FitParams
     examples = (
         "inkmotion run fit text:hello --out results/hello",

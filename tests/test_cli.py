@@ -216,6 +216,8 @@ def test_help_reads_at_80_columns() -> None:
     assert res.returncode == 0, res.stderr
     lines = res.stdout.splitlines()
     assert all(len(line) <= 80 for line in lines) and "…" not in res.stdout
+    assert "<bool>" not in res.stdout  # a flag takes no value, so shows no type
+    assert "<int>" in res.stdout or "INTEGER" in res.stdout  # an option with one keeps it
     titles = [line.split("─")[1].strip() for line in lines if line.startswith("╭─")]
     assert titles[:4] == ["Arguments", "Input/Output", "fit parameters", "Every job"]
     assert "dce initialiser (--initialiser dce)" in titles

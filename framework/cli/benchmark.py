@@ -42,7 +42,8 @@ class BenchmarkCommand(TyperCommand):
 
 def benchmark_cmd(
     inputs: Annotated[list[str], typer.Argument(
-        help="Drawings (GML/JSON/SVG), folders of them, or text:WORD.", show_default=False)],
+        help="Drawings (GML/JSON/SVG), folders of them, sample:NAME or text:WORD.",
+        show_default=False)],
     out_dir: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         "--out", help="Output folder: one folder per item and summary.{json,csv,md,html}.")
     ] = None,

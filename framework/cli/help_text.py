@@ -38,3 +38,20 @@ def reflow_tree(command: Any) -> Any:
     for sub in getattr(command, "commands", {}).values():
         reflow_tree(sub)
     return command
+
+
+def plain_flags() -> None:
+    """Show no type beside a flag (``--force``, ``--[no-]record``, ``--help``) in rich help:
+    a flag takes no value, so ``<bool>`` there reads as if it did. Options with a value keep
+    their type (``<int>``, ``<path>``). A no-op on typer versions that print no type."""
+    from typer.core import TyperOption
+
+    shown = getattr(TyperOption, "display_type_rich", None)
+    if shown is None or getattr(shown, "plain_flags", False):
+        return
+
+    def display_type_rich(self: Any, ctx: Any) -> str | None:
+        return None if getattr(self, "is_flag", False) else shown(self, ctx)
+
+    display_type_rich.plain_flags = True  # type: ignore[attr-defined]
+    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]

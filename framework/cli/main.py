@@ -142,8 +142,9 @@ _register_groups()
 def main() -> None:
     """Entry point of the ``inkmotion`` script: the app's command tree, its help reflowed
     (:mod:`inkmotion.cli.help_text`), run."""
-    from inkmotion.cli.help_text import reflow_tree
+    from inkmotion.cli.help_text import plain_flags, reflow_tree
 
+    plain_flags()
     try:
         code = reflow_tree(typer.main.get_command(app)).main(standalone_mode=False)
     except InkmotionError as exc:  # a last guard: user errors never show a traceback

@@ -68,8 +68,8 @@ def _submit_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> N
                      for item in batch_inputs(batch_words, batch_dir)]
         else:
             if not inputs and config is None:
-                fail("Give an INPUT (file or text:WORD), --config, --batch-words or "
-                     "--batch-dir.", code=2)
+                fail("Give an INPUT (a file, sample:NAME or text:WORD), --config, "
+                     "--batch-words or --batch-dir.", code=2)
             specs = [spec_from_options(kind_name, inputs, values, config)]
         records = submit_specs(specs)
     except InkmotionError as exc:
