@@ -25,8 +25,9 @@ OpenMP not to spin (``OMP_WAIT_POLICY=PASSIVE``, before torch loads).
 The thread count is part of a CPU result: torch's large reductions and MKL's small matrix
 products split their work by thread, so 1 and 2 threads give plans that differ in the last
 bits (never in quality). report.json records ``threads``; a job run again with
-``INKMOTION_THREADS`` set to it reproduces its plan.json bit for bit, and a checkpoint
-records it too (a resume with another count says so).
+``INKMOTION_THREADS`` set to it reproduces its plan.json bit for bit on the same machine
+(another CPU's math kernels move the last bits too: docs/formats.md, job.json), and a
+checkpoint records it too (a resume with another count says so).
 """
 
 from __future__ import annotations
