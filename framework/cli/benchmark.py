@@ -13,6 +13,7 @@ from rich.console import Console
 from typer.core import TyperCommand
 
 from inkmotion.cli.errors import fail
+from inkmotion.cli.run import FORCE_HELP
 from inkmotion.errors import InkmotionError
 
 out = Console()
@@ -64,7 +65,7 @@ def benchmark_cmd(
     device: Annotated[str, typer.Option(help="cpu, cuda or auto.")] = "cpu",
     seed: Annotated[int, typer.Option(min=0, help="Seed of every fit.")] = 0,
     force: Annotated[bool, typer.Option(
-        "--force", help="Replace the results already in --out.")] = False,
+        "--force", help=FORCE_HELP)] = False,
     as_json: Annotated[bool, typer.Option(
         "--json", help="Print the summary (items and aggregate) as JSON; the table and the "
         "progress go to stderr.")] = False,
