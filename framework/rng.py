@@ -1,5 +1,8 @@
 """The global random generators' states (torch, NumPy, Python), to save and restore them
-with a checkpoint so that a resumed run draws the same numbers as an uninterrupted one."""
+with a checkpoint so that a resumed run draws the same numbers as an uninterrupted one.
+
+The states are plain data (tensors, numbers, tuples), so a checkpoint holding them loads
+with ``torch.load(weights_only=True)``: NumPy's key array travels as an int64 tensor."""
 
 from __future__ import annotations
 
@@ -8,11 +11,14 @@ from typing import Any
 
 
 def rng_states() -> dict[str, Any]:
-    """The states of torch's, NumPy's and Python's global generators."""
+    """The states of torch's, NumPy's and Python's global generators (plain data)."""
     import numpy as np
     import torch
 
-    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(),
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    numpy_state = (str(name), torch.from_numpy(np.asarray(keys, dtype=np.int64)), int(pos),
+                   int(has_gauss), float(cached))
+    return {"torch": torch.get_rng_state(), "numpy": numpy_state,
             "python": random.getstate()}
 
 
@@ -22,5 +28,7 @@ def restore_rng(states: dict[str, Any]) -> None:
     import torch
 
     torch.set_rng_state(states["torch"])
-    np.random.set_state(states["numpy"])
+    name, keys, pos, has_gauss, cached = states["numpy"]
+    keys = keys.numpy() if isinstance(keys, torch.Tensor) else np.asarray(keys)
+    np.random.set_state((name, keys.astype(np.uint32), pos, has_gauss, cached))
     random.setstate(states["python"])

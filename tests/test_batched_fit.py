@@ -7,15 +7,11 @@ together against the same jobs run alone, and the thread policy."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import torch
 
-from inkmotion.devices import RunningJobs, default_threads, threads_per_job
 from inkmotion.fitting.losses import canvas_cost, canvas_costs, smoothing_cost, smoothing_costs
 from inkmotion.image_losses.multiscale_mse import prepare_multiscale_mse, stack_multiscale_mse
 from inkmotion.rendering.raster import (
@@ -143,38 +139,6 @@ def test_fit_jobs_run_together_report_each_its_own_fit(tmp_path):
         assert (tmp_path / f"together{k}" / "plan.json").is_file()
 
 
-def test_threads_per_job_divide_the_cores_between_the_jobs_that_share_them(monkeypatch):
-    assert threads_per_job(1, cores=2) == 2 and threads_per_job(2, cores=2) == 1
-    assert threads_per_job(4, cores=2) == 1 and threads_per_job(2, cores=16) == 4
-    monkeypatch.delenv("INKMOTION_THREADS", raising=False)
-    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-    monkeypatch.setenv("INKMOTION_JOB_SLOTS", "64")
-    assert default_threads() == 1
-    monkeypatch.setenv("INKMOTION_THREADS", "3")
-    assert default_threads() == 3  # the user's override wins
-
-
-def test_a_lone_run_counts_the_jobs_running_beside_it(tmp_path, monkeypatch):
-    monkeypatch.setenv("INKMOTION_RUN_DIR", str(tmp_path))
-    running = RunningJobs()
-    assert running.others() == 0
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
-    try:
-        (tmp_path / str(child.pid)).write_text("2")
-        (tmp_path / "999999999").write_text("1")  # a process long gone: not counted
-        running.enter(1)
-        assert running.others() == 1 and not (tmp_path / "999999999").exists()
-        monkeypatch.delenv("INKMOTION_THREADS", raising=False)
-        monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-        monkeypatch.delenv("INKMOTION_JOB_SLOTS", raising=False)
-        assert default_threads() == threads_per_job(2)
-    finally:
-        child.kill()
-        child.wait()
-        running.leave()
-    assert not (tmp_path / str(os.getpid())).exists()
-
-
 def test_report_records_the_thread_count(tmp_path):
     from inkmotion.jobs.shell import run_job
 
@@ -208,31 +172,3 @@ def test_only_jobs_of_one_kind_and_the_same_parameters_batch():
     other = JobSpec(kind="fit", inputs={"drawing": "text:c"}, params={"steps": 11, "size": 128},
                     record_every=0)
     assert not batchable([a, other])
-
-
-def test_a_lone_run_makes_room_for_a_job_that_starts_after_it(tmp_path, monkeypatch):
-    from types import SimpleNamespace
-
-    from inkmotion.devices import ShareCores
-
-    monkeypatch.setenv("INKMOTION_RUN_DIR", str(tmp_path))
-    before = torch.get_num_threads()
-    alone = threads_per_job(1)
-    share = ShareCores(RunningJobs(), threads=alone, every_s=0.0)
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
-    try:
-        share.on_step(SimpleNamespace(step=3))
-        assert share.lowered == []  # alone: nothing to share
-        (tmp_path / str(child.pid)).write_text("1")  # a job started after this one
-        share.on_step(SimpleNamespace(step=7))
-        expected = threads_per_job(2)
-        if expected < alone:
-            assert share.lowered == [{"step": 7, "threads": expected}]
-            assert torch.get_num_threads() == expected
-            report: dict = {}
-            share.on_end(report)
-            assert report["threads_lowered"] == share.lowered
-    finally:
-        child.kill()
-        child.wait()
-        torch.set_num_threads(before)

@@ -86,6 +86,46 @@ def test_a_torn_checkpoint_is_ignored(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
 
 
+class _RunsCode:
+    """A pickled object that runs code when unpickled: what a checkpoint must never be."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple:
+        return (Path.write_text, (self.marker, "ran"))
+
+
+def test_a_checkpoint_is_data_and_one_that_carries_code_is_refused(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A file planted where a job's checkpoint lives, holding a pickled object that runs
+    code, is not loaded (torch.load with weights_only): one warning naming the file, the
+    job starts over at step 0 and finishes, and the planted code never ran."""
+    import torch
+
+    checkpoint, marker = tmp_path / "checkpoint.pt", tmp_path / "pwned"
+    job = spec(20)
+    from inkmotion.jobs.shell import with_threads
+
+    fingerprint = Checkpoints(checkpoint, with_threads(job).to_dict()).fingerprint
+    torch.save({"fingerprint": fingerprint, "step": 10, "state": {"x": _RunsCode(marker)}},
+               checkpoint)
+    with caplog.at_level("WARNING", logger="inkmotion"):
+        report = run_job(job, tmp_path / "out", checkpoint=checkpoint, checkpoint_every=10,
+                         checkpoint_s=1e9)
+    assert not marker.exists(), "the checkpoint ran code"
+    assert report["resumed_from_step"] == 0 and (tmp_path / "out" / "plan.json").is_file()
+    said = [r.getMessage() for r in caplog.records if "checkpoint" in r.getMessage()]
+    assert len(said) == 1 and str(checkpoint) in said[0] and "starts over" in said[0]
+
+
+def test_a_state_that_is_not_plain_data_is_a_bug_caught_when_saved(tmp_path: Path) -> None:
+    ck = Checkpoints(tmp_path / "c.pt", {"a": 1})
+    with pytest.raises(AssertionError, match=r"state\['x'\] is a _RunsCode"):
+        ck.save(1, {"x": _RunsCode(tmp_path / "m")})
+    assert not (tmp_path / "c.pt").exists()
+
+
 def test_a_finished_job_leaves_no_half_written_checkpoint(tmp_path: Path) -> None:
     """A worker killed while it saved leaves ``checkpoint.pt.partial-PID``; the attempt
     that finishes the job removes it with the checkpoint (seen once in the worker kill

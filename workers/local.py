@@ -152,16 +152,16 @@ class WorkerPool:
     ``logs/<name>.log``.
 
     ``env`` (e.g. the ``INKMOTION_*`` variables) is added to this process's environment
-    for every worker, with ``OMP_NUM_THREADS=1`` so that workers on one machine do not
-    fight over its cores.
+    for every worker; each job runs with its spec's thread count (default 1), so workers
+    on one machine do not fight over its cores.
     """
 
     env: dict[str, str]
     logs: Path
     procs: dict[str, subprocess.Popen[bytes]] = field(default_factory=dict)
     queues: tuple[str, ...] = ()
-    #: job slots per worker: > 1 runs a prefork pool of that many children, each told it
-    #: shares the cores with the others (INKMOTION_JOB_SLOTS) instead of one thread
+    #: job slots per worker: > 1 runs a prefork pool of that many children (each job runs
+    #: with the thread count of its spec, default 1: :mod:`inkmotion.devices`)
     concurrency: int = 1
 
     def __post_init__(self) -> None:
@@ -195,11 +195,7 @@ class WorkerPool:
         self.logs.mkdir(parents=True, exist_ok=True)
         log = self.log_path(name)
         offset = log.stat().st_size if log.exists() else 0
-        from inkmotion.devices import SLOTS_ENV
-
-        threads = ({"OMP_NUM_THREADS": "1"} if self.concurrency == 1 else
-                   {SLOTS_ENV: str(self.concurrency), "OMP_WAIT_POLICY": "PASSIVE"})
-        env = {**os.environ, **self.env, **threads, "PYTHONUNBUFFERED": "1"}
+        env = {**os.environ, **self.env, "PYTHONUNBUFFERED": "1"}
         with open(log, "ab") as fh:
             self.procs[name] = proc = subprocess.Popen(
                 self.command(name), env=env, stdout=fh, stderr=subprocess.STDOUT,

@@ -19,8 +19,9 @@ inputs and compare ``summary.json``. Per item it reports
   has time stamps, and the paper's evaluation ratios minimum jerk / ΣΛ and time-optimal /
   ΣΛ of duration, MSJ and LDJ on the longest path (> 1: ΣΛ better).
 
-Items run in worker processes ('spawn': torch and fork do not mix), each with
-max(1, cores // jobs) torch threads (capped like a single job's default). A failing item
+Items run in worker processes ('spawn': torch and fork do not mix), each with a fit's
+default thread count (:func:`inkmotion.devices.default_threads`), so a row is the fit a
+user gets from ``inkmotion run fit`` with the same settings. A failing item
 becomes a row holding its one-sentence error; the others go on. Nothing heavy is imported
 at module level, so the command line can import this module cheaply.
 
@@ -332,7 +333,7 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     """
     from rich.console import Console
 
-    from inkmotion.devices import threads_per_job
+    from inkmotion.devices import default_threads
     from inkmotion.jobs.kind import resolve
     from inkmotion.jobs.spec import JobSpec
     from inkmotion.outputs import StagingDir, refuse_to_overwrite
@@ -350,7 +351,7 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     if batch < 1:
         raise SpecError(f"--batch {batch} must be at least 1.")
     jobs = min(jobs, math.ceil(len(sources) / batch))
-    threads = threads_per_job(jobs)
+    threads = default_threads()  # a fit's own default, whatever runs beside it
     out = Path(out)
     refuse_to_overwrite(out, force)
     created = [p for p in (out, *out.parents) if not p.exists()][1:]  # made by staging

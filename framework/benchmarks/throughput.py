@@ -1,8 +1,8 @@
 """Throughput: default fits per minute on this machine, jobs side by side and in batches.
 
 - ``concurrent_N_fits_per_min``: N ``inkmotion run fit`` processes started together, each
-  told it shares the cores with N − 1 others (``INKMOTION_JOB_SLOTS``, what a worker pool
-  of N slots tells its children), N fits / the wall time until the last one finished.
+  with the default thread count (:mod:`inkmotion.devices`, the same count alone or beside
+  others), N fits / the wall time until the last one finished.
 - ``oversubscribed_2_fits_per_min``: the same for 2 processes that each take every core
   (``INKMOTION_THREADS`` = cores: no thread policy), the fight the policy avoids.
 - ``batch_B_fits_per_min``: B fits as one batched optimisation in one process
@@ -73,24 +73,22 @@ def bench_throughput(concurrency: tuple[int, ...] = (1, 2, 4),
                      device: str = "cpu") -> dict[str, float]:
     """The figures of the module docstring (minutes of work: many full fits) on ``device``
     (on a GPU the jobs side by side share it)."""
-    from inkmotion.devices import SLOTS_ENV, available_cores
+    from inkmotion.devices import available_cores
 
     figures: dict[str, float] = {}
     cores = available_cores()
-    free = {"INKMOTION_THREADS": ""}  # the policy decides, not an outer override
+    free = {"INKMOTION_THREADS": "", "OMP_NUM_THREADS": ""}  # the default, not an override
     with tempfile.TemporaryDirectory(prefix="inkmotion-throughput-") as tmp:
         root = Path(tmp)
-        alone = _concurrent(1, root / "alone", {**free, SLOTS_ENV: "1"}, device)
+        alone = _concurrent(1, root / "alone", free, device)
         figures["fit_alone_s"] = alone
         for n in concurrency:
-            wall = alone if n == 1 else _concurrent(n, root / f"n{n}",
-                                                    {**free, SLOTS_ENV: str(n)}, device)
+            wall = alone if n == 1 else _concurrent(n, root / f"n{n}", free, device)
             figures[f"concurrent_{n}_fits_per_min"] = 60.0 * n / wall
             if n == 2:
                 figures["pair_over_alone"] = wall / alone
         if device == "cpu":
-            wall = _concurrent(2, root / "over",
-                               {"INKMOTION_THREADS": str(cores), SLOTS_ENV: "1"})
+            wall = _concurrent(2, root / "over", {"INKMOTION_THREADS": str(cores)})
             figures["oversubscribed_2_fits_per_min"] = 120.0 / wall
         _warm_up(root / "warm", device)
         for b in batches:

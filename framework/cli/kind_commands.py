@@ -39,6 +39,9 @@ SHELL_PANEL = "Every job"
 SHELL_OPTIONS = (
     ParamInfo("seed", int, 0, "Random seed.", minimum=0),
     ParamInfo("device", str, "auto", "cpu, cuda, cuda:N or auto (CUDA when present)."),
+    ParamInfo("threads", int, None, "CPU threads of the job, fixed for its whole run and "
+              "recorded in job.json (default: INKMOTION_THREADS, else 1: a fit gains "
+              "nothing from a second thread).", optional=True, minimum=1),
     ParamInfo("record_every", int, 10,
               "Rendered images into recording.rrd every k steps (0: none).", minimum=0),
 )

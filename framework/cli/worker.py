@@ -56,16 +56,15 @@ def worker_cmd(
         fail(exc)
     import os
 
-    from inkmotion.devices import available_cores, share_cores
+    from inkmotion.devices import available_cores, default_threads
     from inkmotion.workers.tasks import BATCH_ENV
 
     slots = 1 if pool == "solo" else concurrency
-    threads = share_cores(slots)  # the children inherit it: none fights another for cores
     if batch != 1:
         os.environ[BATCH_ENV] = str(batch)
     batch = int(os.environ.get(BATCH_ENV, batch) or 1)
-    typer.echo(f"inkmotion worker: {slots} job slot(s) on {available_cores()} core(s), "
-               f"{threads} torch thread(s) per job (INKMOTION_THREADS overrides)"
+    typer.echo(f"inkmotion worker: {slots} job slot(s) on {available_cores()} core(s); each "
+               f"job runs with the threads of its spec (default {default_threads()})"
                + (f", up to {batch} fit jobs per batch" if batch > 1 else ""))
     argv = ["worker", f"--queues={','.join(wanted)}", f"--concurrency={concurrency}",
             f"--loglevel={loglevel}", f"--pool={pool}"]

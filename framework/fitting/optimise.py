@@ -70,6 +70,25 @@ class FitResult:
     #: (``optimise``'s ``resume`` continues from it, e.g. after a rolled-back plan edit)
     state: dict | None = None
 
+    def to_data(self) -> dict[str, Any]:
+        """This result as plain data — tensors, numbers, strings, lists and dicts — for a
+        checkpoint, which loads with ``torch.load(weights_only=True)``
+        (:mod:`inkmotion.jobs.checkpoint`); :meth:`from_data` makes it again, bit for bit."""
+        plans = [{"tensors": [p.points, p.delta_t, p.delta, p.ac, p.T], "width": p.width}
+                 for p in self.plans]
+        return {"plans": plans, "initial_terms": self.initial_terms,
+                "final_terms": self.final_terms, "initial_t_end": self.initial_t_end,
+                "final_t_end": self.final_t_end, "rendered": self.rendered,
+                "wall_s": self.wall_s, "steps": self.steps, "state": self.state}
+
+    @classmethod
+    def from_data(cls, data: dict[str, Any]) -> FitResult:
+        """The result :meth:`to_data` wrote."""
+        plans = [MotorPlan(*p["tensors"], p["width"]) for p in data["plans"]]
+        return cls(plans, data["initial_terms"], data["final_terms"], data["initial_t_end"],
+                   data["final_t_end"], data["rendered"], data["wall_s"], data["steps"],
+                   data["state"])
+
 
 def cosine(step: int, total: int, final: float) -> float:
     """Learning-rate factor: cosine decay from 1 to ``final`` over ``total`` steps."""

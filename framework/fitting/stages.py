@@ -180,8 +180,16 @@ class _Edits:
     frozen: bool = False  # a rolled-back edit without merges: no more edits
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kept": self.kept, "quality": self.quality, "pending": self.pending,
+        """Plain data for a checkpoint (:meth:`from_dict` reads it)."""
+        return {"kept": self.kept.to_data() if self.kept is not None else None,
+                "quality": self.quality, "pending": self.pending,
                 "merges_allowed": self.merges_allowed, "frozen": self.frozen}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> _Edits:
+        kept = FitResult.from_data(d["kept"]) if d["kept"] is not None else None
+        quality = tuple(d["quality"]) if d["quality"] is not None else None
+        return cls(kept, quality, d["pending"], d["merges_allowed"], d["frozen"])
 
 
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
@@ -334,7 +342,7 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
                   "initial_t_end": saved["initial_t_end"],
                   "objective": saved.get("objective"), "rng": saved["rng"]}
         if "edits" in saved:
-            edits = _Edits(**saved["edits"])
+            edits = _Edits.from_dict(saved["edits"])
     resumed_from = done + (resume["step"] if resume is not None else 0)
     for k, n in enumerate(steps):
         if k < start_stage:

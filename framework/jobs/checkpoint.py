@@ -9,6 +9,13 @@ half-written file. It holds what the job kind needs to continue bit for bit — 
 the stage, the plans it started from, the optimiser's parameters and Adam moments, the
 step, the record of the stages so far, and the RNG states — plus a fingerprint of the job
 spec, so a checkpoint of another spec is never resumed (it is ignored and overwritten).
+
+A checkpoint is data, never code: it holds tensors, numbers, strings, lists, tuples and
+dicts only, and is read with ``torch.load(weights_only=True)``, which builds nothing else.
+Whoever can write the data directory can therefore make a worker start a job over, but not
+run code on it: a file that is not such a checkpoint is refused with one warning sentence
+and the job starts from step 0. A state with anything else in it is a bug of the job kind
+that saves it, caught when it is saved (:func:`check_plain`).
 """
 
 from __future__ import annotations
@@ -60,6 +67,7 @@ class Checkpoints:
         import torch
 
         started = time.perf_counter()
+        check_plain(state)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_name(f"{self.path.name}.partial-{os.getpid()}")
         torch.save({"fingerprint": self.fingerprint, "step": step, "state": state,
@@ -77,8 +85,14 @@ class Checkpoints:
         if not self.path.is_file():
             return None
         try:
-            saved = torch.load(self.path, weights_only=False)
-        except Exception:  # a torn or foreign file: start afresh
+            saved = torch.load(self.path, weights_only=True)
+        except Exception as exc:  # a torn file, or one that is not data: start afresh
+            import logging
+
+            reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            logging.getLogger("inkmotion").warning(
+                "%s is not a readable inkmotion checkpoint (%s); the job starts over from "
+                "step 0.", self.path, reason[:160])
             return None
         if not isinstance(saved, dict) or saved.get("fingerprint") != self.fingerprint:
             return None
@@ -105,3 +119,23 @@ def remove_checkpoint(path: Path) -> None:
     path.unlink(missing_ok=True)
     for partial in path.parent.glob(f"{path.name}.partial-*"):
         partial.unlink(missing_ok=True)
+
+
+def check_plain(value: Any, where: str = "state") -> None:
+    """Assert that ``value`` is plain data that ``torch.load(weights_only=True)`` reads back:
+    tensors, None, bool, int, float, str, and lists, tuples and dicts (string keys) of them."""
+    import torch
+
+    if value is None or isinstance(value, (bool, int, float, str, torch.Tensor)):
+        return
+    if isinstance(value, (list, tuple)):
+        for k, item in enumerate(value):
+            check_plain(item, f"{where}[{k}]")
+        return
+    if isinstance(value, dict):
+        for key, item in value.items():
+            assert isinstance(key, (str, int)), f"checkpoint {where}: key {key!r} is not plain"
+            check_plain(item, f"{where}[{key!r}]")
+        return
+    raise AssertionError(f"checkpoint {where} is a {type(value).__name__}, not plain data "
+                         "(tensors, numbers, strings, lists, tuples, dicts)")

@@ -21,7 +21,7 @@ import platform
 import random
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -150,44 +150,43 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
     :class:`inkmotion.errors.InkmotionError` subclasses for user-caused failures (bad
     input, unknown plugin); nothing is left in ``out_dir`` then.
     """
-    from inkmotion.devices import (
-        RunningJobs,
-        ShareCores,
-        configure_threads,
-        lone,
-        resolve_device,
-    )
+    from inkmotion.devices import configure_threads, resolve_device
     from inkmotion.outputs import StagingDir
 
+    spec = with_threads(spec)
     resolved = resolve(spec)
     device = resolve_device(spec.device)
-    running = RunningJobs()
-    threads = configure_threads(running=running)  # a lone run started meanwhile sees it
-    try:
-        seed_everything(spec.seed)
-        # a lone run that took every free core makes room for runs that start after it
-        share = [ShareCores(running, threads)] if lone() else []
-        group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
-                                                   recording_id=recording_id), *observers,
-                               *share])
-        total = int(resolved.kind.steps(resolved.params))
-        checkpoints = _checkpoints(Together(spec, Path(out_dir), checkpoint=checkpoint),
-                                   checkpoint_every, checkpoint_s, checkpoint_now)
-        with StagingDir(Path(out_dir)) as staging:
-            try:
-                job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
-                          checkpoints=checkpoints)
-                report = _finished(job, dict(resolved.kind.run(job)), threads)
-                for observer in share:
-                    observer.on_end(report)  # before report.json: the lowered threads
-                record_job(staging.path, resolved.full_spec(), report)
-                group.on_end(report)
-            finally:
-                group.close()  # files complete (or released) before the folder moves
-            staging.commit()
-    finally:
-        running.leave()
+    threads = configure_threads(spec.threads)
+    seed_everything(spec.seed)
+    group = ObserverGroup([*standard_observers(spec, record=record, progress=progress,
+                                               recording_id=recording_id), *observers])
+    total = int(resolved.kind.steps(resolved.params))
+    checkpoints = _checkpoints(Together(spec, Path(out_dir), checkpoint=checkpoint),
+                               checkpoint_every, checkpoint_s, checkpoint_now)
+    with StagingDir(Path(out_dir)) as staging:
+        try:
+            job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
+                      checkpoints=checkpoints)
+            report = _finished(job, dict(resolved.kind.run(job)), threads)
+            record_job(staging.path, resolved.full_spec(), report)
+            group.on_end(report)
+        finally:
+            group.close()  # files complete (or released) before the folder moves
+        staging.commit()
     return report
+
+
+def with_threads(spec: JobSpec) -> JobSpec:
+    """``spec`` with its thread count decided (:func:`inkmotion.devices.default_threads`
+    when it names none): the count the job runs with from start to end, recorded in its
+    job.json and report.json."""
+    if spec.threads is not None:
+        return spec
+    from inkmotion.devices import default_threads
+
+    spec = spec.copy()
+    spec.threads = default_threads()
+    return spec
 
 
 def seed_everything(seed: int) -> None:
@@ -242,16 +241,16 @@ def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
     raised instead (a worker that queues the jobs again)."""
     from contextlib import ExitStack
 
-    from inkmotion.devices import RunningJobs, configure_threads, resolve_device
+    from inkmotion.devices import configure_threads, resolve_device
     from inkmotion.outputs import StagingDir
 
+    jobs = [replace(j, spec=with_threads(j.spec)) for j in jobs]
     specs = [j.spec for j in jobs]
     if not batchable(specs):
         return [_alone(j, record, checkpoint_every, checkpoint_s, checkpoint_now) for j in jobs]
     resolved = [resolve(spec) for spec in specs]
     device = resolve_device(specs[0].device)
-    running = RunningJobs()
-    threads = configure_threads(running=running)
+    threads = configure_threads(specs[0].threads)
     groups: list[ObserverGroup] = []
     try:
         with ExitStack() as stack:
@@ -293,8 +292,6 @@ def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
             "a batch of %d %s jobs failed; running each alone", len(jobs), specs[0].kind,
             exc_info=True)
         return [_alone(j, record, checkpoint_every, checkpoint_s, checkpoint_now) for j in jobs]
-    finally:
-        running.leave()
 
 
 def _finished(job: Job, report: dict, threads: int) -> dict:

@@ -4,7 +4,7 @@ A job is one validated spec, plain JSON (job.json), so it can travel through the
 and reproduce a run::
 
     {"version": 4, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
-     "device": "auto", "record_every": 10,
+     "device": "auto", "threads": 1, "record_every": 10,
      "params": {"steps": 300, ..., "initialiser": {"name": "dce", "threshold": 1.0},
                 "renderer": {"name": "raster"}, "losses": [{"name": "mse"}]}}
 
@@ -19,7 +19,9 @@ rolled-back plan edits of issue 19). Those defaults are declared once, with thei
 on the parameters themselves (``param(..., earlier={2: ...})``), so a spec keeps its
 version and a field it leaves out takes that version's default when it is resolved
 against its kind (:func:`inkmotion.jobs.kind.resolve`); job.json is then written as the
-current version with every field spelled out.
+current version with every field spelled out. ``threads`` (any version) is the job's torch
+thread count; a spec without it takes the default when the job starts
+(:func:`inkmotion.devices.default_threads`), and its job.json records the count it ran with.
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ from inkmotion.json_files import read_json
 
 SPEC_VERSION = 4
 DEFAULT_DEVICE = "auto"
-_FIELDS = ("version", "kind", "inputs", "seed", "device", "record_every", "params")
+_FIELDS = ("version", "kind", "inputs", "seed", "device", "threads", "record_every",
+           "params")
 
 
 @dataclass
@@ -49,6 +52,9 @@ class JobSpec:
     device: str = DEFAULT_DEVICE  # cpu, cuda, cuda:N or auto (CUDA when present)
     record_every: int = 10  # rendered images into recording.rrd every k steps (0: none)
     version: int = SPEC_VERSION
+    #: torch intra-op threads on the CPU; None: decided when the job starts
+    #: (:func:`inkmotion.devices.default_threads`) and written into its job.json
+    threads: int | None = None
 
     @property
     def label(self) -> str:
@@ -57,8 +63,9 @@ class JobSpec:
 
     def to_dict(self) -> dict[str, Any]:
         return {"version": self.version, "kind": self.kind, "inputs": dict(self.inputs),
-                "seed": self.seed, "device": self.device, "record_every": self.record_every,
-                "params": copy.deepcopy(self.params)}
+                "seed": self.seed, "device": self.device,
+                **({"threads": self.threads} if self.threads is not None else {}),
+                "record_every": self.record_every, "params": copy.deepcopy(self.params)}
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=1)
@@ -103,6 +110,11 @@ def _check_types(spec: JobSpec, source: str) -> None:
         value = getattr(spec, name)
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise SpecError(f"{source}: {name}={value!r} must be a non-negative integer.")
+    threads = spec.threads
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or threads < 1):
+        raise SpecError(f"{source}: threads={threads!r} must be a positive integer (torch "
+                        "threads of the job), or left out for the default.")
     if not isinstance(spec.device, str) or not spec.device:
         raise SpecError(f"{source}: device must be cpu, cuda, cuda:N or auto.")
 

@@ -1,0 +1,109 @@
+"""A job's thread count is part of its spec: decided once before it starts, recorded in
+job.json and report.json, never taken from (or changed by) the jobs running beside it; so
+``run --config job.json`` reproduces a plan bit for bit while another fit runs."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+from inkmotion.devices import DEFAULT_THREADS, default_threads
+from inkmotion.errors import SpecError
+from inkmotion.jobs.spec import JobSpec
+
+INKMOTION = [sys.executable, "-m", "inkmotion"]
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("INKMOTION_THREADS", "OMP_NUM_THREADS")}
+    return {**env, **extra}
+
+
+def test_the_default_is_the_environments_override_else_one_thread(monkeypatch):
+    monkeypatch.delenv("INKMOTION_THREADS", raising=False)
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    assert default_threads() == DEFAULT_THREADS == 1
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    assert default_threads() == 2
+    monkeypatch.setenv("INKMOTION_THREADS", "3")
+    assert default_threads() == 3  # inkmotion's own variable wins
+    monkeypatch.setenv("INKMOTION_THREADS", "zero")
+    assert default_threads() == 2  # not a count: the next source decides
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, "2", True])
+def test_a_spec_with_a_thread_count_that_is_not_one_is_refused(bad):
+    with pytest.raises(SpecError, match="threads=.* must be a positive integer"):
+        JobSpec.from_dict({"version": 4, "kind": "fit", "inputs": {"drawing": "text:a"},
+                           "threads": bad})
+
+
+def test_job_json_and_report_record_the_count_the_job_ran_with(tmp_path, monkeypatch):
+    from inkmotion.jobs.shell import run_job
+
+    monkeypatch.setenv("INKMOTION_THREADS", "1")
+    before = torch.get_num_threads()
+    try:
+        spec = JobSpec(kind="fit", inputs={"drawing": "text:a"},
+                       params={"steps": 3, "size": 96}, record_every=0, threads=2)
+        report = run_job(spec, tmp_path / "two")
+        assert report["threads"] == 2  # the spec's count, over the environment's
+        saved = json.loads((tmp_path / "two" / "job.json").read_text())["spec"]
+        assert saved["threads"] == 2
+        report = run_job(JobSpec(kind="fit", inputs={"drawing": "text:a"},
+                                 params={"steps": 3, "size": 96}, record_every=0),
+                         tmp_path / "default")
+        assert report["threads"] == 1
+        assert json.loads((tmp_path / "default" / "job.json").read_text())[
+            "spec"]["threads"] == 1
+    finally:
+        torch.set_num_threads(before)
+
+
+def test_run_config_with_another_fit_beside_it_gives_the_same_plan_bytes(tmp_path):
+    """The neighbour test of the thread policy: a fit, then the same job.json again while
+    another fit runs on the machine, whose start would once have lowered the thread count
+    of the first (and tipped its plan edits)."""
+    env = _env()
+    first = tmp_path / "first"
+    subprocess.run([*INKMOTION, "run", "fit", "text:hi", "--steps", "120", "--size", "200",
+                    "--no-record", "--out", str(first)], env=env, check=True,
+                   capture_output=True)
+    neighbour = subprocess.Popen([*INKMOTION, "run", "fit", "text:neighbour", "--steps",
+                                  "3000", "--no-record", "--out", str(tmp_path / "n")],
+                                 env=env, stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.DEVNULL)
+    try:
+        again = tmp_path / "again"
+        subprocess.run([*INKMOTION, "run", "fit", "--config", str(first / "job.json"),
+                        "--no-record", "--out", str(again)], env=env, check=True,
+                       capture_output=True)
+        assert neighbour.poll() is None, "the neighbour must still be running"
+    finally:
+        neighbour.kill()
+        neighbour.wait()
+    assert (again / "plan.json").read_bytes() == (first / "plan.json").read_bytes()
+    report = json.loads((again / "report.json").read_text())
+    assert report["threads"] == json.loads((first / "job.json").read_text())["spec"]["threads"]
+    assert "threads_lowered" not in report
+
+
+def test_run_takes_threads_as_an_option_and_config_keeps_it(tmp_path):
+    out = tmp_path / "two"
+    subprocess.run([*INKMOTION, "run", "fit", "text:a", "--steps", "2", "--size", "96",
+                    "--threads", "2", "--no-record", "--out", str(out)], env=_env(),
+                   check=True, capture_output=True)
+    assert json.loads((out / "job.json").read_text())["spec"]["threads"] == 2
+    again = tmp_path / "again"
+    subprocess.run([*INKMOTION, "run", "fit", "--config", str(out / "job.json"),
+                    "--no-record", "--out", str(again)], env=_env(INKMOTION_THREADS="1"),
+                   check=True, capture_output=True)
+    assert json.loads((again / "report.json").read_text())["threads"] == 2
+    assert Path(again / "plan.json").read_bytes() == Path(out / "plan.json").read_bytes()
