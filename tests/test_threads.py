@@ -107,3 +107,40 @@ def test_run_takes_threads_as_an_option_and_config_keeps_it(tmp_path):
                    check=True, capture_output=True)
     assert json.loads((again / "report.json").read_text())["threads"] == 2
     assert Path(again / "plan.json").read_bytes() == Path(out / "plan.json").read_bytes()
+
+
+def test_the_image_loss_gradient_is_the_same_bits_under_any_thread_count():
+    """The multi-scale MSE's levels are elementwise ops (no matrix product), so what the
+    optimiser sees does not change with the thread count."""
+    from inkmotion.image_losses.multiscale_mse import prepare_multiscale_mse
+
+    g = torch.Generator().manual_seed(0)
+    target, image = torch.rand(350, 217, generator=g), torch.rand(350, 217, generator=g)
+    loss = prepare_multiscale_mse(target)
+    before = torch.get_num_threads()
+    grads = []
+    try:
+        for n in (1, 2, 4):
+            torch.set_num_threads(n)
+            x = image.clone().requires_grad_(True)
+            loss(x).backward()
+            grads.append(x.grad)
+    finally:
+        torch.set_num_threads(before)
+    assert all(torch.equal(grads[0], other) for other in grads[1:])
+
+
+@pytest.mark.slow
+def test_a_fit_is_the_same_bits_under_1_2_4_threads_and_another_mkl_code_path(tmp_path):
+    """The same job under other thread counts and MKL's AVX2 code path
+    (MKL_CBWR, where the machine has more) gives the same plan.json, byte for byte."""
+    runs = {"t1": {"INKMOTION_THREADS": "1"}, "t2": {"INKMOTION_THREADS": "2"},
+            "t4": {"INKMOTION_THREADS": "4"},
+            "mkl-avx2": {"INKMOTION_THREADS": "1", "MKL_CBWR": "AVX2"}}
+    for name, extra in runs.items():
+        subprocess.run([*INKMOTION, "run", "fit", "sample:tempt-1", "--steps", "150",
+                        "--no-record", "--out", str(tmp_path / name)], env=_env(**extra),
+                       check=True, capture_output=True)
+    first = (tmp_path / "t1" / "plan.json").read_bytes()
+    for name in list(runs)[1:]:
+        assert (tmp_path / name / "plan.json").read_bytes() == first, name

@@ -11,12 +11,17 @@ gradient towards ink that is far away, which improves convergence (paper, Result
 
 Everything is a plain torch op: differentiable, on the inputs' device and dtype.
 
-Speed: blur and pooling are linear and separable, so level s is I_s = A_s · I · B_sᵀ with
-small dense operators A_s (H_s × H) and B_s (W_s × W), built once by running the same
-blur-and-pool chain on identity matrices. :func:`prepare_multiscale_mse` stacks the A_s,
-so a loss evaluation is two matrix products per level instead of convolutions (about 6×
-faster forward+backward on a 350-px canvas on 2 CPU cores), with static shapes and no
-read of the device.
+Determinism. :func:`prepare_multiscale_mse` computes the levels of a fit's rendering with
+elementwise torch ops only — the 5-tap blur as five scaled, shifted copies added in a fixed
+order, the pooling as the mean of the even and odd samples — no matrix product and no
+convolution. Elementwise IEEE arithmetic gives the same bits whatever the thread count
+and whatever the instruction set its kernels were built for, so the loss's gradient (what
+the optimiser sees) is the same under 1, 2 or 4 threads and under other BLAS or oneDNN code
+paths (``MKL_CBWR``). The dense operators it replaced (two matrix products per level)
+changed their last bits with the thread count and the MKL code path, which a few hundred
+Adam steps carried into different plans. (The batched loss of several drawings,
+:func:`stack_multiscale_mse`, still uses matrix products: a batch agrees with its drawings
+alone up to float round-off.)
 """
 
 from __future__ import annotations
@@ -93,28 +98,44 @@ def pyramid_operators(n: int, levels: int, dtype: torch.dtype,
     return ops
 
 
+def _down_last(x: torch.Tensor) -> torch.Tensor:
+    """One level down along the last axis (n → ⌈n/2⌉): the 5-tap Gaussian with replicate
+    padding, then the mean of each pair (a lone last sample kept), exactly :func:`pyramid`
+    along that axis; elementwise ops in a fixed order (module docstring: determinism)."""
+    n = x.shape[-1]
+    k = _gaussian_1d(torch.float64, torch.device("cpu")).tolist()
+    r = KERNEL_SIZE // 2
+    padded = torch.cat([x[..., :1]] * r + [x] + [x[..., -1:]] * r, dim=-1)
+    blurred = padded[..., 0:n] * k[0]
+    for j in range(1, KERNEL_SIZE):
+        blurred = blurred + padded[..., j:j + n] * k[j]
+    if n % 2:  # ceil mode: the last window holds one sample, its own mean
+        blurred = torch.cat((blurred, blurred[..., -1:]), dim=-1)
+    return (blurred[..., 0::2] + blurred[..., 1::2]) * 0.5
+
+
+def _down(image: torch.Tensor) -> torch.Tensor:
+    """One pyramid level down along both axes of ``image`` (..., H, W)."""
+    return _down_last(_down_last(image).transpose(-1, -2)).transpose(-1, -2)
+
+
 def prepare_multiscale_mse(
     target: torch.Tensor, levels: int | None = None
 ) -> Callable[[torch.Tensor], torch.Tensor]:
     """``loss(rendered (H, W)) -> scalar``: Σ_s MSE(rendered_s, target_s) against ``target``
-    (H, W), whose levels are computed once; ``levels`` defaults to :func:`default_levels`."""
+    (H, W), whose levels are computed once; ``levels`` defaults to :func:`default_levels`.
+    Its gradient is bitwise the same under any thread count and code path (module
+    docstring)."""
     h, w = target.shape[-2:]
     if levels is None:
         levels = default_levels(h, w)
     assert levels >= 1, levels
     target = target.detach().reshape(h, w)
-    rows = pyramid_operators(h, levels, target.dtype, target.device)[1:]
-    cols = [c.t().contiguous() for c in
-            pyramid_operators(w, levels, target.dtype, target.device)[1:]]
-    stacked = torch.cat(rows) if rows else None  # (Σ H_s, H)
-    splits = [r.shape[0] for r in rows]
 
     def levels_of(image: torch.Tensor) -> list[torch.Tensor]:
         out = [image]
-        if stacked is not None:
-            a_all = stacked.to(image.dtype)
-            row_applied = torch.split(a_all @ image, splits)  # (H_s, W) each
-            out += [a @ c.to(image.dtype) for a, c in zip(row_applied, cols, strict=True)]
+        for _ in range(levels - 1):
+            out.append(_down(out[-1]))
         return out
 
     with torch.no_grad():
