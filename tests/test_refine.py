@@ -57,6 +57,43 @@ def test_merge_removes_the_junction_of_a_pinned_pair() -> None:
     assert k == 1 and merged_chain.m == 2  # one merge per pair: 2 and 3 are not both merged
 
 
+def test_hand_sparsity_keeps_a_plan_within_its_density_band() -> None:
+    """'hand': a plan may grow by 25 % of its initial count, +2 only below 8 (the authors'
+    density goal); merges leave at least 75 %; 'budget' (spec 4) gave every plan the +2."""
+    from inkmotion.fitting.refine import fewest_moves, growth_margin
+
+    assert [growth_margin(m) for m in (4, 7, 8, 9, 29, 32)] == [3, 3, 2, 2, 7, 8]
+    assert [growth_margin(m, "budget") for m in (4, 8, 29)] == [3, 4, 9]
+    assert all(m + growth_margin(m) <= 1.25 * m + (2 if m < 8 else 0) for m in range(1, 80))
+    assert [fewest_moves(m) for m in (1, 4, 8, 29)] == [1, 3, 6, 22]
+    chain = plan_through([[0, 0], [1, 0], [2, 0], [3, 0], [4, 0], [5, 0]], delta_t=0.1)
+    assert merge_pinned(chain)[1] == 2
+    assert merge_pinned(chain, limit=1)[1] == 1 and merge_pinned(chain, limit=0)[1] == 0
+
+
+def test_an_edit_is_kept_only_with_a_margin_round_off_cannot_cross() -> None:
+    """Under 'hand' an inserted target must buy 0.1 of the criterion, and the edit clears
+    the bar by the rule's margin or is rolled back: a gain a last bit away from the bar
+    is never what decides."""
+    from inkmotion.fitting.optimise import FitResult
+    from inkmotion.fitting.quality import criterion
+    from inkmotion.fitting.stages import SPARSITY, _Edits, _judge
+
+    hand = SPARSITY["hand"]
+    result = lambda: FitResult([], {}, {}, [], [], torch.zeros(1, 1), 0.0, 1)  # noqa: E731
+    before = (0.5, 4.0)
+    bar = criterion(*before, 350.0) - hand.gain_per_target  # one target: the gain needed
+    for gain_past_bar, kept in ((hand.margin + 1e-3, True), (hand.margin - 1e-3, False),
+                                (1e-7, False), (-1e-7, False)):
+        edits = _Edits()
+        _judge(edits, result(), before, 350.0, {}, hand)
+        edits.pending = {"inserted": 1, "merged": 0}
+        mean = (bar - gain_past_bar - 4.0 / 8.0) * 0.6  # the refit's mean at max 4 px
+        entry: dict = {}
+        _, rolled = _judge(edits, result(), (mean, 4.0), 350.0, entry, hand)
+        assert entry["edit"]["kept"] is kept and rolled is not kept, gain_past_bar
+
+
 def test_a_missed_hook_gets_a_target_on_the_right_sub_movement() -> None:
     """The input goes out to a hook at (50, 30) and back; the plan goes straight past it.
     The worst miss is the hook's tip, bracketed by where the fit is still on the trace,

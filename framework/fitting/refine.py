@@ -226,11 +226,13 @@ def salient_targets(plan: MotorPlan, strokes: list[np.ndarray], size: float) -> 
             if input_turn(strokes, points[j, :2], arm) >= SALIENT_TURN_DEG}
 
 
-def merge_pinned(plan: MotorPlan, keep: set[int] | None = None) -> tuple[MotorPlan, int]:
+def merge_pinned(plan: MotorPlan, keep: set[int] | None = None,
+                 limit: int | None = None) -> tuple[MotorPlan, int]:
     """``plan`` with the pairs of sub-movements whose second Δt sits at the floor merged
-    into one (module docstring), and how many were merged; pairs are taken from the last
-    to the first, so a merged pair is not merged again in the same edit. Targets whose
-    index is in ``keep`` (salient corners, :func:`salient_targets`) are never removed."""
+    into one (module docstring), and how many were merged (at most ``limit``); pairs are
+    taken from the last to the first, so a merged pair is not merged again in the same
+    edit. Targets whose index is in ``keep`` (salient corners, :func:`salient_targets`)
+    are never removed."""
     p = plan.detached()
     floor = DELTA_T_RANGE[0]
     pinned = ((p.delta_t - floor).abs() <= FLOOR_TOLERANCE).tolist()
@@ -238,6 +240,8 @@ def merge_pinned(plan: MotorPlan, keep: set[int] | None = None) -> tuple[MotorPl
         pinned[j] = False  # merging sub-movement j into j − 1 removes target p_j
     merged = 0
     for i in range(p.m - 1, 0, -1):  # Δt_1 (index 0) is unused
+        if limit is not None and merged >= limit:
+            break
         if pinned[i]:
             p, merged = merge_move(p, i), merged + 1
             pinned[i - 1] = False  # one merge per pair: i − 1 now holds both
@@ -257,18 +261,30 @@ def insert_targets(plans: list[MotorPlan], misses: list[Miss]) -> list[MotorPlan
 #: a plan grows by at most this share of its sub-movements in one budget (a plan stays
 #: sparse: about one target per salient stroke, so within 25 % of the authors' density)
 MAX_GROWTH = 0.25
+#: merges leave at least this share of a plan's initial sub-movements
+MIN_KEPT = 0.75
 
 
 #: sub-movements a very small plan may gain beyond :data:`MAX_GROWTH` (a 5-move tag with a
 #: hook the DCE missed needs one more, which 25 % of 5 does not give)
 SMALL_PLAN_EXTRA = 2
+#: "very small": fewer initial sub-movements than this ('hand' sparsity; 'budget', the
+#: rule of spec version 4, gave the extra to every plan)
+SMALL_PLAN_BELOW = 8
 
 
-def growth_margin(moves: int) -> int:
+def growth_margin(moves: int, sparsity: str = "hand") -> int:
     """The targets all edits of a fit together may add to a plan of ``moves`` sub-movements:
-    :data:`MAX_GROWTH` of them (rounded down) plus :data:`SMALL_PLAN_EXTRA`: the margin of
-    the fit's density goal, m within 1.25× the authors' count, +2 for very small plans."""
-    return math.floor(MAX_GROWTH * moves) + SMALL_PLAN_EXTRA
+    :data:`MAX_GROWTH` of them (rounded down), plus :data:`SMALL_PLAN_EXTRA` for a plan of
+    fewer than :data:`SMALL_PLAN_BELOW` ('hand') or for every plan ('budget'): the fit's
+    density goal, m within 1.25× the authors' count, +2 only where that count is below 8."""
+    extra = SMALL_PLAN_EXTRA if sparsity == "budget" or moves < SMALL_PLAN_BELOW else 0
+    return math.floor(MAX_GROWTH * moves) + extra
+
+
+def fewest_moves(moves: int) -> int:
+    """The fewest sub-movements merges may leave of a plan of ``moves``: ⌈0.75·moves⌉."""
+    return math.ceil(MIN_KEPT * moves - 1e-9)
 
 
 def budget(moves: int, fraction: float) -> int:

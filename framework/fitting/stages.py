@@ -3,18 +3,20 @@
 Modes (the fit job's ``--targets``):
 
 - ``default``: the initialiser's plan is fitted for ``first_share`` of the steps, edited
-  once per refinement round (targets inserted at the worst misses above ``insert_above``
-  px, and pinned pairs merged unless their target is a salient corner of the input), and
+  once per refinement round (targets inserted at the worst misses above the
+  :class:`Sparsity` rule's ``insert_above`` px, and pinned pairs merged unless their target
+  is a salient corner of the input), and
   fitted on for the rest of the steps, split evenly over the rounds. With 0 rounds it is
-  one plain fit. With ``rollback`` (version-4 specs) every edit is judged after its refit
-  against the input: it is kept only when the fit's criterion (Chamfer mean / 0.6 px +
-  max / 8 px at 350 px, :mod:`inkmotion.fitting.quality`) fell, by at least
-  :data:`GAIN_PER_TARGET` per inserted target; otherwise the plan and the optimiser state
-  go back to before the edit, the record says so and why, and the fit goes on from there
-  (the next edit without merges if the undone one merged, else no more edits). The edits
-  together may then add up to 25 % of the initial m, +2 (:func:`~inkmotion.fitting.refine.
-  growth_margin`); without ``rollback`` at most ``insert_share`` × the initial m, and
-  every edit is kept (versions 1–3).
+  one plain fit. With ``rollback`` (version-4 specs on) every edit is judged after its
+  refit against the input: it is kept only when the fit's criterion (Chamfer mean / 0.6
+  px + max / 8 px at 350 px, :mod:`inkmotion.fitting.quality`) fell by at least the
+  rule's ``gain_per_target`` per inserted target plus its ``margin``; otherwise the plan
+  and the optimiser state go back to before the edit, the record says so and why, and
+  the fit goes on from there (the next edit without merges if the undone one merged,
+  else no more edits). The edits together may then add up to 25 % of the initial m, +2
+  below 8 ('hand'; every plan under 'budget', :func:`~inkmotion.fitting.refine.
+  growth_margin`), and merges leave at least 75 % ('hand'); without ``rollback`` at most
+  ``insert_share`` × the initial m, and every edit is kept (versions 1–3).
 - ``auto``: a first fit of ``steps``, then rounds of a quarter of them (at least 50); after
   each, the Chamfer distance of the fit is measured and recorded with the plan's size,
   and the fit stops as soon as the max distance reaches ``max_error`` px; otherwise
@@ -45,8 +47,10 @@ import numpy as np
 from inkmotion.events import StepState, wants
 from inkmotion.fitting.objective import Objective
 from inkmotion.fitting.optimise import FitResult, OptimiserSettings, Request, optimise
+from inkmotion.fitting.quality import REFERENCE_SIZE
 from inkmotion.fitting.refine import (
     budget,
+    fewest_moves,
     growth_margin,
     insert_targets,
     merge_pinned,
@@ -57,11 +61,33 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
 MAX_AUTO_ROUNDS = 12
-#: default mode: an edit that inserts k targets is kept only if it lowers the criterion
-#: (:func:`inkmotion.fitting.quality.criterion`, goal-normalised) by at least this × k: a
-#: target must buy about 0.03 px of mean or 0.4 px of max distance, or the plan stays
-#: sparser (a ΣΛ plan is a model of movement, about one target per stroke, not a curve fit)
-GAIN_PER_TARGET = 0.05
+
+
+@dataclass(frozen=True)
+class Sparsity:
+    """How sparse the default mode keeps a plan (the fit's ``--sparsity``).
+
+    A target is inserted only where the input is farther than ``insert_above`` px from the
+    fit (px on a 350-px canvas, scaled with it when ``scaled``), and an edit that inserts k
+    targets is kept only if it lowers the criterion (:func:`inkmotion.fitting.quality.
+    criterion`, goal-normalised) by at least ``gain_per_target`` × k + ``margin``. The
+    margin is the decision's distance from round-off: a gain that clears the bar by less
+    than it is not taken, so last-bit differences of another machine's arithmetic
+    (which a refit carries into the criterion's last digits) do not flip the decision."""
+
+    insert_above: float
+    gain_per_target: float
+    margin: float
+    scaled: bool
+
+
+#: 'hand': a target only for a miss a person would see — 3 px, the width of the pen, on a
+#: 350-px canvas — and only if it buys 0.1 of the criterion (0.06 px of mean or 0.8 px of
+#: max distance), the plan within 1.25× its initial size (+2 below 8) and 0.75× after
+#: merges; 'budget': spec version 4's rule (misses above 2 px, 0.05 per target, no margin,
+#: 25 % + 2 for every plan), which spent its whole budget on most inputs
+SPARSITY = {"hand": Sparsity(3.0, 0.1, 0.02, True),
+            "budget": Sparsity(2.0, 0.05, 0.0, False)}
 
 
 @dataclass(frozen=True)
@@ -71,13 +97,17 @@ class RefineSettings:
     mode: str = "default"  # default | auto | fixed
     rounds: int = 1  # default mode: edits between stages
     first_share: float = 0.6  # default mode: share of the steps before the first edit
-    insert_above: float = 2.0  # px: misses at least this far from the fit get a target
     insert_share: float = 0.2  # at most this share of m inserted per edit
     separation: float = 12.0  # px between two inserted targets of one edit
     merge: bool = True  # merge pairs whose Δt is pinned at the floor
     rollback: bool = True  # default mode: an edit whose refit is worse is undone
     protect_corners: bool = True  # merges keep the targets of the input's salient corners
     max_error: float = 2.0  # auto: the goal, max Chamfer px
+    sparsity: str = "hand"  # default mode: a key of SPARSITY
+
+    @property
+    def rule(self) -> Sparsity:
+        return SPARSITY[self.sparsity]
 
 
 @dataclass
@@ -125,10 +155,12 @@ def _split(total: int, first_share: float, rounds: int) -> list[int]:
 
 
 def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
-         above: float, limit: int, size: float = 350.0) -> tuple[list[MotorPlan], int, int]:
+         above: float, limit: int, size: float = 350.0,
+         fewest: int = 0) -> tuple[list[MotorPlan], int, int]:
     """Insert at most ``limit`` targets at the worst misses above ``above`` px, then merge
     pinned pairs (keeping the salient corners of the input on a ``size``-px canvas when
-    ``s.protect_corners``); returns the plans, inserted and merged counts."""
+    ``s.protect_corners``, and at least ``fewest`` sub-movements in all); returns the
+    plans, inserted and merged counts."""
     from inkmotion.outputs.sampling import on_cpu
 
     device, dtype = plans[0].points.device, plans[0].points.dtype
@@ -137,10 +169,14 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     cpu = insert_targets(cpu, misses)
     merged = 0
     if s.merge:
-        edited = [merge_pinned(p, salient_targets(p, strokes, size) if s.protect_corners
-                               else None) for p in cpu]
-        cpu = [p for p, _ in edited]
-        merged = sum(k for _, k in edited)
+        room = sum(p.m for p in cpu) - fewest
+        edited = []
+        for p in cpu:
+            merged_plan, k = merge_pinned(p, salient_targets(p, strokes, size)
+                                          if s.protect_corners else None, max(0, room))
+            edited.append(merged_plan)
+            room, merged = room - k, merged + k
+        cpu = edited
     return [p.to(device=device, dtype=dtype) for p in cpu], len(misses), merged
 
 
@@ -193,7 +229,8 @@ class _Edits:
 
 
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
-           entry: dict[str, Any]) -> tuple[FitResult, bool]:
+           entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"]
+           ) -> tuple[FitResult, bool]:
     """Keep the stage's ``result`` if it was refitted from an edit that improved the
     criterion (:func:`inkmotion.fitting.quality.criterion`) or from no edit; otherwise roll
     back to the last kept result. Returns the result to go on from and whether it rolled
@@ -207,8 +244,8 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     after = criterion(*quality, size)
     entry["edit"] = dict(edits.pending)
     entry["criterion_before"], entry["criterion_after"] = before, after
-    needed = GAIN_PER_TARGET * edits.pending.get("inserted", 0)
-    if after <= before - needed:
+    needed = rule.gain_per_target * edits.pending.get("inserted", 0)
+    if after <= before - needed - rule.margin:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
                                 f"{edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
@@ -219,8 +256,9 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     entry["edit"]["why"] = (f"rolled back: the criterion went {before:.3f} → {after:.3f} "
                             f"(Chamfer {edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
                             f"{quality[0]:.2f}/{quality[1]:.1f} px)"
-                            + (f", less than the {needed:.2f} its {edits.pending['inserted']} "
-                               "new target(s) must gain" if needed and after < before else ""))
+                            + (f", less than the {needed + rule.margin:.2f} its "
+                               f"{edits.pending['inserted']} new target(s) must gain"
+                               if needed and after < before else ""))
     if edits.pending.get("merged", 0) > 0:
         edits.merges_allowed = False
     else:
@@ -383,7 +421,7 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
         record.append(entry)
         if rollback:
-            result, rolled = _judge(edits, result, (mean, worst), size, entry)
+            result, rolled = _judge(edits, result, (mean, worst), size, entry, refine.rule)
             if rolled:
                 added -= edits.pending["inserted"] if edits.pending else 0
         if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):
@@ -396,10 +434,11 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             above = refine.max_error / 2
             limit = max(1, budget(entry["moves"], refine.insert_share))
         else:  # all rounds together grow it by the share at most
-            above = refine.insert_above
+            rule = refine.rule
+            above = rule.insert_above * (size / REFERENCE_SIZE if rule.scaled else 1.0)
             limit = budget(initial_moves, refine.insert_share) - added
             if rollback:  # a worse edit is undone: the whole density margin may be tried
-                limit = growth_margin(initial_moves) - added
+                limit = growth_margin(initial_moves, refine.sparsity) - added
         carry, edits.pending = None, None
         if rollback and edits.frozen:
             plans, inserted, merged = result.plans, 0, 0
@@ -407,7 +446,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             allow_merge = refine.merge and refine.mode != "auto" and edits.merges_allowed
             plans, inserted, merged = edit(result.plans, strokes,
                                            replace(refine, merge=allow_merge), above, limit,
-                                           size)
+                                           size, fewest_moves(initial_moves)
+                                           if refine.sparsity == "hand" else 0)
         added += inserted
         if rollback:
             if inserted or merged:

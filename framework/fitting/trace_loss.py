@@ -8,6 +8,10 @@ nothing pulls it back. The trace term does, from any distance:
 
     L_trace = mean_{q ∈ Q} ρ(d(q, C)) + mean_{c ∈ F} ρ(d(c, T))
 
+(with a tolerance τ, the fit's ``--tolerance``, each d is replaced by max(0, d − τ): the
+motion may leave the trace by up to τ px at no cost, where the smoothing cost makes it
+more rapid for it)
+
 with Q the input points (every ``spacing`` px of arc along each stroke), C the fitted trajectory
 as chords (each Hermite Bézier segment of the fitting grid split at t = ½), F the fitted
 samples (the segments' t = 0 and t = ½ points), T the input polyline's segments, d the
@@ -236,9 +240,12 @@ class TraceLoss:
     among them, at a cost linear in the input's length and the plan's size."""
 
     def __init__(self, reference: TraceReference, owners: torch.Tensor,
-                 scale: float | None = None, refresh: int = 20, reach: int = 2) -> None:
+                 scale: float | None = None, refresh: int = 20, reach: int = 2,
+                 tolerance: float = 0.0) -> None:
         self.ref = reference
         scale = HUBER_SCALE * reference.unit if scale is None else scale
+        #: canvas px within which a distance costs nothing: ρ(max(0, d − tolerance))
+        self.tolerance = float(tolerance)
         self.owners = owners.cpu().numpy()  # (n_strokes, P) bool
         self.scale = scale
         self.refresh, self.reach = refresh, reach
@@ -395,6 +402,10 @@ class TraceLoss:
         lo, hi = first[nearest][:, None], last[nearest][:, None]
         return torch.minimum(torch.maximum(nearest[:, None] + self._offsets, lo), hi)
 
+    def _beyond(self, d2: torch.Tensor) -> torch.Tensor:
+        """max(0, d − tolerance)² of squared distances ``d2`` (zero gradient inside)."""
+        return (d2.clamp_min(1e-12).sqrt() - self.tolerance).clamp_min(0.0).square()
+
     def __call__(self, segments: torch.Tensor, layout: GridLayout,
                  step: int | None = None) -> torch.Tensor:
         """L_trace of ``segments``; ``step`` (1-based, an optimiser step) searches the
@@ -425,8 +436,11 @@ class TraceLoss:
         f = starts[:, None, :].expand(-1, w, -1).reshape(-1, 2)
         precision = _point_segment_d2(f, ref.seg_a[j], ref.seg_b[j])
         s2 = self.scale * self.scale
-        recall = (recall.view(-1, w).amin(1) + s2).sqrt()  # (K,) ρ + s
-        precision = (precision.view(-1, w).amin(1) + s2).sqrt()  # (2S,) ρ + s
+        recall, precision = recall.view(-1, w).amin(1), precision.view(-1, w).amin(1)
+        if self.tolerance > 0:  # squared distances beyond the tolerance band
+            recall, precision = self._beyond(recall), self._beyond(precision)
+        recall = (recall + s2).sqrt()  # (K,) ρ + s
+        precision = (precision + s2).sqrt()  # (2S,) ρ + s
         if self._union is not None:  # each drawing's own means (B,)
             u = self._union
             return (u.mean(recall, u.point_item) + u.mean(precision, u.sample_item)

@@ -12,22 +12,23 @@ gradient towards ink that is far away, which improves convergence (paper, Result
 Everything is a plain torch op: differentiable, on the inputs' device and dtype.
 
 Determinism. :func:`prepare_multiscale_mse` computes the levels of a fit's rendering with
-elementwise torch ops only — the 5-tap blur as five scaled, shifted copies added in a fixed
-order, the pooling as the mean of the even and odd samples — no matrix product and no
-convolution. Elementwise IEEE arithmetic gives the same bits whatever the thread count
-and whatever the instruction set its kernels were built for, so the loss's gradient (what
-the optimiser sees) is the same under 1, 2 or 4 threads and under other BLAS or oneDNN code
-paths (``MKL_CBWR``). The dense operators it replaced (two matrix products per level)
-changed their last bits with the thread count and the MKL code path, which a few hundred
-Adam steps carried into different plans. (The batched loss of several drawings,
-:func:`stack_multiscale_mse`, still uses matrix products: a batch agrees with its drawings
-alone up to float round-off.)
+elementwise torch ops only — the 5-tap blur and the pair mean folded into one stride-2
+filter of 6 taps, applied as six scaled, shifted copies added in a fixed order — no matrix
+product and no convolution. Elementwise IEEE arithmetic gives the same bits whatever the
+thread count and whatever the instruction set its kernels were built for, so the loss's
+gradient (what the optimiser sees) is the same under 1, 2 or 4 threads and under other
+BLAS or oneDNN code paths (``MKL_CBWR``). The dense operators it replaced (two matrix
+products per level) changed their last bits with the thread count and the MKL code path,
+which a few hundred Adam steps carried into different plans. (The batched loss of several
+drawings, :func:`stack_multiscale_mse`, still uses matrix products: a batch agrees with
+its drawings alone up to float round-off.)
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import torch
 import torch.nn.functional as F
@@ -98,25 +99,81 @@ def pyramid_operators(n: int, levels: int, dtype: torch.dtype,
     return ops
 
 
-def _down_last(x: torch.Tensor) -> torch.Tensor:
-    """One level down along the last axis (n → ⌈n/2⌉): the 5-tap Gaussian with replicate
-    padding, then the mean of each pair (a lone last sample kept), exactly :func:`pyramid`
-    along that axis; elementwise ops in a fixed order (module docstring: determinism)."""
-    n = x.shape[-1]
+def _taps() -> tuple[list[float], list[float]]:
+    """The 5 blur weights k, and the 6 weights of blur-then-pair-mean folded into one
+    stride-2 filter: ½·(k0, k0+k1, k1+k2, k2+k3, k3+k4, k4)."""
     k = _gaussian_1d(torch.float64, torch.device("cpu")).tolist()
+    return k, [0.5 * a for a in (k[0], k[0] + k[1], k[1] + k[2], k[2] + k[3], k[3] + k[4],
+                                 k[4])]
+
+
+def _down_forward(image: torch.Tensor, dim: int) -> torch.Tensor:
+    """One level down along ``dim`` (-1 or -2) of ``image`` (..., H, W), n → ⌈n/2⌉: the
+    5-tap Gaussian with replicate padding, then the mean of each pair of samples (a lone
+    last sample kept: ceil mode), as :func:`pyramid` does along that axis, folded into
+    one stride-2 filter of 6 taps; elementwise ops in a fixed order (module docstring:
+    determinism)."""
+    n = image.shape[dim]
+    half = n // 2
+    k, folded = _taps()
     r = KERNEL_SIZE // 2
-    padded = torch.cat([x[..., :1]] * r + [x] + [x[..., -1:]] * r, dim=-1)
-    blurred = padded[..., 0:n] * k[0]
-    for j in range(1, KERNEL_SIZE):
-        blurred = blurred + padded[..., j:j + n] * k[j]
-    if n % 2:  # ceil mode: the last window holds one sample, its own mean
-        blurred = torch.cat((blurred, blurred[..., -1:]), dim=-1)
-    return (blurred[..., 0::2] + blurred[..., 1::2]) * 0.5
+    first, last = image.narrow(dim, 0, 1), image.narrow(dim, n - 1, 1)
+    padded = torch.cat([first] * r + [image] + [last] * (r + 1), dim=dim)  # n + 5
+    lead = (slice(None),) * (padded.dim() + dim)  # the axes before ``dim``
+    out = padded[(*lead, slice(0, 2 * half, 2))] * folded[0]
+    for j in range(1, 6):
+        out = out + padded[(*lead, slice(j, j + 2 * half, 2))] * folded[j]
+    if n % 2:  # the last window holds the one blurred sample n − 1
+        tail = padded.narrow(dim, n - 1, 1) * k[0]
+        for j in range(1, KERNEL_SIZE):
+            tail = tail + padded.narrow(dim, n - 1 + j, 1) * k[j]
+        out = torch.cat((out, tail), dim=dim)
+    return out
 
 
-def _down(image: torch.Tensor) -> torch.Tensor:
-    """One pyramid level down along both axes of ``image`` (..., H, W)."""
-    return _down_last(_down_last(image).transpose(-1, -2)).transpose(-1, -2)
+def _down_backward(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
+    """The adjoint of :func:`_down_forward` (its exact transpose) applied to ``grad``: each
+    output's gradient added back to the samples it read, with their weights, in a fixed
+    order into one buffer (no autograd graph of slices, each of which would allocate and
+    zero a full-size gradient)."""
+    half = n // 2
+    k, folded = _taps()
+    r = KERNEL_SIZE // 2
+    shape = list(grad.shape)
+    shape[dim] = n + 2 * r + 1
+    padded = grad.new_zeros(shape)
+    lead = (slice(None),) * (grad.dim() + dim)
+    body = grad.narrow(dim, 0, half)
+    for j in range(6):
+        padded[(*lead, slice(j, j + 2 * half, 2))] += body * folded[j]
+    if n % 2:
+        tail = grad.narrow(dim, half, 1)
+        for j in range(KERNEL_SIZE):
+            padded.narrow(dim, n - 1 + j, 1).add_(tail * k[j])
+    out = padded.narrow(dim, r, n).clone()
+    out.narrow(dim, 0, 1).add_(padded.narrow(dim, 0, 1)).add_(padded.narrow(dim, 1, 1))
+    end = padded.narrow(dim, r + n, r + 1)
+    for j in range(r + 1):
+        out.narrow(dim, n - 1, 1).add_(end.narrow(dim, j, 1))
+    return out
+
+
+class _Down(torch.autograd.Function):
+    """:func:`_down_forward` with :func:`_down_backward` as its gradient."""
+
+    @staticmethod
+    def forward(ctx: Any, image: torch.Tensor, dim: int) -> torch.Tensor:
+        ctx.n, ctx.dim = image.shape[dim], dim
+        return _down_forward(image, dim)
+
+    @staticmethod
+    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None]:
+        return _down_backward(grad.contiguous(), ctx.n, ctx.dim), None
+
+
+def _down(image: torch.Tensor, dim: int) -> torch.Tensor:
+    """One pyramid level down along ``dim`` (module docstring: determinism)."""
+    return _Down.apply(image, dim)
 
 
 def prepare_multiscale_mse(
@@ -135,7 +192,7 @@ def prepare_multiscale_mse(
     def levels_of(image: torch.Tensor) -> list[torch.Tensor]:
         out = [image]
         for _ in range(levels - 1):
-            out.append(_down(out[-1]))
+            out.append(_down(_down(out[-1], -2), -1))  # rows first: contiguous slices
         return out
 
     with torch.no_grad():

@@ -1,9 +1,9 @@
-"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 4).
+"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 5).
 
 A job is one validated spec, plain JSON (job.json), so it can travel through the broker
 and reproduce a run::
 
-    {"version": 4, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
+    {"version": 5, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
      "device": "auto", "threads": 1, "record_every": 10,
      "params": {"steps": 300, ..., "initialiser": {"name": "dce", "threshold": 1.0},
                 "renderer": {"name": "raster"}, "losses": [{"name": "mse"}]}}
@@ -13,9 +13,10 @@ and reproduce a run::
 files (flat ``input``, ``initialiser``, ``renderer``, ``losses``, ``reader`` and a flat
 ``params`` with ``dce_threshold`` and ``record_every``) are laid out anew on load
 (:func:`upgrade_v1`, as version 2), so their job.json still reproduces their run.
-Versions 2, 3 and 4 share one layout and differ only in some defaults of the fit and of
+Versions 2 to 5 share one layout and differ only in some defaults of the fit and of
 the dce initialiser (3: the sparse, refined plan of issue 10; 4: the trace term and
-rolled-back plan edits of issue 19). Those defaults are declared once, with their history,
+rolled-back plan edits of issue 19; 5: the 'hand' sparsity of plan edits and the rapid
+defaults of issue 32). Those defaults are declared once, with their history,
 on the parameters themselves (``param(..., earlier={2: ...})``), so a spec keeps its
 version and a field it leaves out takes that version's default when it is resolved
 against its kind (:func:`inkmotion.jobs.kind.resolve`); job.json is then written as the
@@ -35,7 +36,7 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 4
+SPEC_VERSION = 5
 DEFAULT_DEVICE = "auto"
 _FIELDS = ("version", "kind", "inputs", "seed", "device", "threads", "record_every",
            "params")
@@ -75,7 +76,7 @@ class JobSpec:
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "job spec") -> JobSpec:
-        """A spec from its JSON form (versions 1 to 4, or a job.json wrapping it)."""
+        """A spec from its JSON form (versions 1 to 5, or a job.json wrapping it)."""
         if not isinstance(d, dict):
             raise SpecError(f"{source}: a job spec must be a JSON object.")
         d = dict(d.get("spec", d))  # a job.json wraps the spec

@@ -66,6 +66,16 @@ class FitParams(OptimisationParams):
                                "hook of the input (a turn of 60° or more).", earlier={3: False})
     max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
                              minimum=0.05)
+    tolerance: float = param(0.5, "px on a 350-px canvas (scaled with it) within which the "
+                             "motion may leave the input at no cost, to be more rapid: the "
+                             "trace term counts only distance beyond it, and the image loss "
+                             "compares with the ink widened by it on both sides (0: as close "
+                             "as it can).", minimum=0, maximum=20, earlier={4: 0.0})
+    sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
+                          "for a miss wider than the pen, 3 px at 350, that it fixes; m "
+                          "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
+                          "misses above 2 px, the whole 25 % + 2 may be spent).",
+                          choices=("hand", "budget"), earlier={4: "budget"})
     reader: PluginChoice | None = plugin_param(
         "reader", None, "Reader plugin (default: the first that accepts the input).")
     initialiser: PluginChoice = plugin_param("initialiser", "dce", "Initialiser plugin.")
@@ -86,7 +96,7 @@ class FitParams(OptimisationParams):
         mode = self.targets if count is None else "fixed"
         return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
                               max_error=self.max_error, rollback=self.rollback,
-                              protect_corners=self.keep_corners)
+                              protect_corners=self.keep_corners, sparsity=self.sparsity)
 
 
 def target_count(targets: str) -> int | None:
@@ -141,6 +151,7 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
     import torch
 
     from inkmotion.fitting.objective import Objective
+    from inkmotion.fitting.quality import REFERENCE_SIZE
     from inkmotion.kinds.optimisation import image_losses, staged_problem
     from inkmotion.kinds.read import read_input
     from inkmotion.plugin_host.protocols import JobInputs, Reference
@@ -159,9 +170,12 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
                        **options)
     asked = _targets_note(p, plans)
     target = render_polylines(renderer, traces.strokes, p.width, canvas, dtype, job.device)
-    objective = Objective(renderer, image_losses(job, Reference(image=target)), canvas,
+    tolerance = p.tolerance * max(canvas) / REFERENCE_SIZE  # canvas px
+    within = target if tolerance == 0 else render_polylines(
+        renderer, traces.strokes, p.width + 2 * tolerance, canvas, dtype, job.device)
+    objective = Objective(renderer, image_losses(job, Reference(image=within)), canvas,
                           p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace),
-                          trace=_trace_term(traces, plans, dtype, job.device)
+                          trace=_trace_term(traces, plans, dtype, job.device, tolerance)
                           if p.w_trace > 0 else None)
     job.start(canvas, target, traces.strokes)
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
@@ -184,7 +198,8 @@ def _ignored_options(p: FitParams) -> list[str]:
 
     defaults = {f.name: f.default for f in fields(FitParams)}
     only = {"max_error": ("auto",), "refine": ("default",), "merge": ("default",),
-            "rollback": ("default",), "keep_corners": ("default",)}
+            "rollback": ("default",), "keep_corners": ("default",),
+            "sparsity": ("default",)}
     mode = p.targets if p.targets in ("default", "auto") else "N"
     out = []
     for name, modes in only.items():
@@ -209,9 +224,10 @@ def _targets_note(p: FitParams, plans: list) -> str | None:
             f"on this input{why}; the fit uses those.")
 
 
-def _trace_term(traces: Any, plans: list, dtype: Any, device: Any) -> Any:
+def _trace_term(traces: Any, plans: list, dtype: Any, device: Any,
+                tolerance: float = 0.0) -> Any:
     """The trace term of the fit (:mod:`inkmotion.fitting.trace_loss`), each stroke owned by
-    the paths whose initial trajectory follows it."""
+    the paths whose initial trajectory follows it, free within ``tolerance`` canvas px."""
     from inkmotion.fitting.quality import REFERENCE_SIZE
     from inkmotion.fitting.trace_loss import TraceLoss, TraceReference
     from inkmotion.outputs.sampling import on_cpu, sample
@@ -220,7 +236,7 @@ def _trace_term(traces: Any, plans: list, dtype: Any, device: Any) -> Any:
     reference = TraceReference.of(traces.validated().strokes, dtype=dtype, device=device,
                                   unit=unit)
     owners = reference.ownership([sample(on_cpu(p)).positions for p in plans])
-    return TraceLoss(reference, owners)
+    return TraceLoss(reference, owners, tolerance=tolerance)
 
 
 def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
