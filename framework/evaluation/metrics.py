@@ -30,9 +30,10 @@ Definitions.
   jerk point-to-point movement has ∫x⃛² = 720A²/T⁵ and v_peak = 15A/(8T), so
   LDJ = −ln(720·64/225) = −ln 204.8 ≈ −5.322.
 - Curvature of a planar curve: κ = |ẋÿ − ẏẍ| / |v|³ (1/R on a circle of radius R).
-- Speed peaks and minima: ``scipy.signal.find_peaks`` on the speed (or its negative) with a
-  prominence of ``prominence`` × the peak speed, after an optional Gaussian smoothing of
-  ``smooth_s`` seconds (for noisy recordings); :func:`speed_peaks` and :func:`speed_minima`
+- Speed peaks and minima: SciPy's ``find_peaks`` (written with NumPy in
+  :mod:`inkmotion.speed_extrema`) on the speed (or its negative) with a prominence of
+  ``prominence`` × the peak speed, after an optional Gaussian smoothing of ``smooth_s``
+  seconds (for noisy recordings); :func:`speed_peaks` and :func:`speed_minima`
   live in :mod:`inkmotion.speed_extrema`, below the spray preview that needs them too.
 """
 
@@ -41,9 +42,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.signal import find_peaks
 
-from inkmotion.speed_extrema import speed_minima, speed_peaks
+from inkmotion.speed_extrema import find_peaks, speed_minima, speed_peaks
 
 #: curvature below this over the path's extent (a radius 1000× the drawing) is straight
 STRAIGHT = 1e-3

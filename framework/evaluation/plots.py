@@ -51,7 +51,8 @@ def plot_minima(path: str | Path, position: np.ndarray, dt: float,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
-    from scipy.signal import find_peaks
+
+    from inkmotion.speed_extrema import find_peaks
 
     xy = np.asarray(position, dtype=float)[:, :2]
     speed = _speed(xy, dt)

@@ -22,8 +22,11 @@ where the fit is still on the trace; the nearest fitted sample to q itself often
 another part of the path), else at the nearest fitted sample. The sub-movement i that moves
 the pen most at t*, argmax_i Λ_i(t*)·|d_i| (the lognormal
 speed profile of eq. "velocity" times its amplitude), is split at q: targets
-…, p_{i−1}, q, p_i, … with δ_i halved on both halves and Δt, Ac, T of sub-movement i
-copied to both.
+…, p_{i−1}, q, p_i, … with δ_i halved on both halves and Ac, T of sub-movement i copied
+to both; the two halves share the time of the one they replace (each overlaps by Δt_i/2:
+T_end and every later onset stay put, and a correction costs the motion no time until
+the refit decides it needs some), or, under spec version 4's 'budget' rule, both copy
+Δt_i.
 
 Merging. Where Δt_i (i ≥ 2) is within 1e-6 of the floor, target p_{i−1}, where
 sub-movement i − 1 ends and i begins, is removed: sub-movement i − 1 then runs from
@@ -152,9 +155,19 @@ def _rebuild(plan: MotorPlan, points: torch.Tensor, delta_t: torch.Tensor,
     return MotorPlan(points, delta_t, delta, ac, T, plan.width)
 
 
-def split_move(plan: MotorPlan, i: int, q: np.ndarray) -> MotorPlan:
+#: ``keep_time`` splits: each half overlaps by this share of the Δt it replaces
+SPLIT_SHARE = float(__import__("os").environ.get("INKMOTION_SPLIT_SHARE", "0.5"))
+
+
+def split_move(plan: MotorPlan, i: int, q: np.ndarray, keep_time: bool = False) -> MotorPlan:
     """``plan`` with sub-movement ``i`` (0-based) split at the new target ``q`` (2,); a 3-D
-    plan's new target takes the radius half-way between its neighbours."""
+    plan's new target takes the radius half-way between its neighbours.
+
+    ``keep_time``: the two halves share the time of the sub-movement they replace, each
+    with half its overlap Δt_i (at least the floor), so every later onset, and T_end, stay
+    where they were (t0_{i+1} = t0_{i−1} + (Δt_i/2 + Δt_i/2)·T); the first sub-movement,
+    whose Δt is unused, hands its second half an overlap of ½. Otherwise both halves
+    copy Δt_i (spec version 4), and T_end grows by Δt_i·T_i."""
     p = plan.detached()
     new = torch.as_tensor(np.asarray(q, dtype=np.float64)[:2], dtype=p.points.dtype,
                           device=p.points.device)
@@ -164,7 +177,14 @@ def split_move(plan: MotorPlan, i: int, q: np.ndarray) -> MotorPlan:
     twice = lambda x: torch.cat((x[:i + 1], x[i:]))  # noqa: E731  (m,) -> (m + 1,)
     delta = twice(p.delta)
     delta[i:i + 2] = p.delta[i] / 2
-    return _rebuild(p, points, twice(p.delta_t), delta, twice(p.ac), twice(p.T))
+    delta_t = twice(p.delta_t)
+    if keep_time:
+        floor = DELTA_T_RANGE[0]
+        if i == 0:
+            delta_t[1] = SPLIT_SHARE
+        else:
+            delta_t[i:i + 2] = (p.delta_t[i] * SPLIT_SHARE).clamp_min(floor)
+    return _rebuild(p, points, delta_t, delta, twice(p.ac), twice(p.T))
 
 
 def merge_move(plan: MotorPlan, i: int) -> MotorPlan:
@@ -248,13 +268,14 @@ def merge_pinned(plan: MotorPlan, keep: set[int] | None = None,
     return p, merged
 
 
-def insert_targets(plans: list[MotorPlan], misses: list[Miss]) -> list[MotorPlan]:
+def insert_targets(plans: list[MotorPlan], misses: list[Miss],
+                   keep_time: bool = False) -> list[MotorPlan]:
     """``plans`` with one target inserted per miss (module docstring), latest time first
-    within a path so earlier indices stay valid."""
+    within a path so earlier indices stay valid; ``keep_time``: see :func:`split_move`."""
     out = list(plans)
     for miss in sorted(misses, key=lambda m: (m.path, -m.time)):
         i = dominant_move(out[miss.path], miss.time)
-        out[miss.path] = split_move(out[miss.path], i, miss.point)
+        out[miss.path] = split_move(out[miss.path], i, miss.point, keep_time)
     return out
 
 

@@ -156,17 +156,21 @@ def _split(total: int, first_share: float, rounds: int) -> list[int]:
 
 def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
          above: float, limit: int, size: float = 350.0,
-         fewest: int = 0) -> tuple[list[MotorPlan], int, int]:
+         fewest: int = 0, shared_time: bool | None = None
+         ) -> tuple[list[MotorPlan], int, int]:
     """Insert at most ``limit`` targets at the worst misses above ``above`` px, then merge
     pinned pairs (keeping the salient corners of the input on a ``size``-px canvas when
     ``s.protect_corners``, and at least ``fewest`` sub-movements in all); returns the
-    plans, inserted and merged counts."""
+    plans, inserted and merged counts. ``shared_time`` (default: under 'hand' sparsity): a
+    split sub-movement's halves share its time (:func:`~inkmotion.fitting.refine.
+    split_move`), else each copies its overlap."""
     from inkmotion.outputs.sampling import on_cpu
 
     device, dtype = plans[0].points.device, plans[0].points.dtype
     cpu = [on_cpu(p) for p in plans]
     misses = worst_misses(strokes, cpu, above=above, separation=s.separation, limit=limit)
-    cpu = insert_targets(cpu, misses)
+    shared = s.sparsity == "hand" if shared_time is None else shared_time
+    cpu = insert_targets(cpu, misses, keep_time=shared)
     merged = 0
     if s.merge:
         room = sum(p.m for p in cpu) - fewest
@@ -214,18 +218,24 @@ class _Edits:
     pending: dict[str, int] | None = None  # {"inserted": n, "merged": k}
     merges_allowed: bool = True  # a rolled-back edit with merges: insert only next time
     frozen: bool = False  # a rolled-back edit without merges: no more edits
+    #: 'hand': a rolled-back insertion whose splits shared their time is tried once more
+    #: with sequential splits (each half its own overlap: a miss of many px, a hook the
+    #: overlapping halves still cut, needs the time to reach it)
+    sequential: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for a checkpoint (:meth:`from_dict` reads it)."""
         return {"kept": self.kept.to_data() if self.kept is not None else None,
                 "quality": self.quality, "pending": self.pending,
-                "merges_allowed": self.merges_allowed, "frozen": self.frozen}
+                "merges_allowed": self.merges_allowed, "frozen": self.frozen,
+                "sequential": self.sequential}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> _Edits:
         kept = FitResult.from_data(d["kept"]) if d["kept"] is not None else None
         quality = tuple(d["quality"]) if d["quality"] is not None else None
-        return cls(kept, quality, d["pending"], d["merges_allowed"], d["frozen"])
+        return cls(kept, quality, d["pending"], d["merges_allowed"], d["frozen"],
+                   d.get("sequential", False))
 
 
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
@@ -261,6 +271,8 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
                                if needed and after < before else ""))
     if edits.pending.get("merged", 0) > 0:
         edits.merges_allowed = False
+    elif rule is SPARSITY["hand"] and not edits.sequential:
+        edits.sequential = True  # once more, each new target with time to reach it
     else:
         edits.frozen = True
     return edits.kept, True
@@ -447,7 +459,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             plans, inserted, merged = edit(result.plans, strokes,
                                            replace(refine, merge=allow_merge), above, limit,
                                            size, fewest_moves(initial_moves)
-                                           if refine.sparsity == "hand" else 0)
+                                           if refine.sparsity == "hand" else 0,
+                                           None if not edits.sequential else False)
         added += inserted
         if rollback:
             if inserted or merged:

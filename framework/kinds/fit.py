@@ -66,7 +66,7 @@ class FitParams(OptimisationParams):
                                "hook of the input (a turn of 60° or more).", earlier={3: False})
     max_error: float = param(2.0, "--targets auto: the goal for the max Chamfer distance, px.",
                              minimum=0.05)
-    tolerance: float = param(0.5, "px on a 350-px canvas (scaled with it) within which the "
+    tolerance: float = param(0.0, "px on a 350-px canvas (scaled with it) within which the "
                              "motion may leave the input at no cost, to be more rapid: the "
                              "trace term counts only distance beyond it, and the image loss "
                              "compares with the ink widened by it on both sides (0: as close "
