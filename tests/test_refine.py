@@ -41,6 +41,30 @@ def test_split_keeps_the_ends_and_copies_the_timing() -> None:
     assert split_move(three, 0, np.array([5.0, 1.0])).points[1].tolist() == [5.0, 1.0, 2.0]
 
 
+def test_a_split_with_kept_time_moves_later_onsets_by_half_the_overlap() -> None:
+    """'hand' splits: each half overlaps by ¾ of the replaced Δt, so the next onset, and
+    T_end, move by ½·Δt·T instead of Δt·T (spec 4's split copies Δt to both halves)."""
+    from inkmotion.fitting.refine import SPLIT_SHARE
+    from inkmotion.sigma_lognormal.batch import PlanBatch
+
+    p = plan_through([[0, 0], [10, 0], [20, 0], [30, 0]])
+    p.delta_t[:] = torch.tensor([1.0, 0.6, 0.5], dtype=torch.float64)
+    onsets = lambda plan: PlanBatch.from_plans([plan]).timing()[2]  # noqa: E731
+    t_end = lambda plan: float(plan.end_time)  # noqa: E731
+    kept = split_move(p, 1, np.array([15.0, 5.0]), keep_time=True)
+    copied = split_move(p, 1, np.array([15.0, 5.0]))
+    assert kept.delta_t.tolist() == pytest.approx([1.0, 0.6 * SPLIT_SHARE,
+                                                  0.6 * SPLIT_SHARE, 0.5])
+    T = float(p.T[1])
+    grow = (2 * SPLIT_SHARE - 1) * 0.6 * T
+    assert float(onsets(kept)[-1] - onsets(p)[-1]) == pytest.approx(grow)
+    assert t_end(kept) - t_end(p) == pytest.approx(grow)
+    assert t_end(copied) - t_end(p) == pytest.approx(0.6 * T)
+    floor = split_move(plan_through([[0, 0], [1, 0], [2, 0]], delta_t=0.1), 1,
+                       np.array([1.5, 1.0]), keep_time=True)
+    assert floor.delta_t.tolist()[1:] == pytest.approx([0.1, 0.1])  # never below the floor
+
+
 def test_merge_removes_the_junction_of_a_pinned_pair() -> None:
     p = plan_through([[0, 0], [10, 0], [20, 0], [30, 0]])
     p.delta[:] = torch.tensor([0.1, 0.2, 0.3], dtype=torch.float64)

@@ -44,9 +44,9 @@ FIGURES: dict[str, tuple[str, str]] = {
     "spray_preview_4000_s": ("s", "the same preview at 4000 px"),
     # fit
     "fit_input": ("", "the drawing the timed fit fits (--fit-input)"),
-    "fit_steps": ("", "Adam steps of the timed fit (the speed target is set for 300)"),
+    "fit_steps": ("", "Adam steps of the timed fit (the fit's default)"),
     "fit_wall_s": ("s", "the whole fit job, default settings (350 px): read, initialise, "
-                        "optimise, write"),
+                        "optimise, write (report.json's wall_s)"),
     "fit_ms_per_step": ("ms", "optimiser time per step"),
     "fit_moves": ("", "sub-movements (lognormals) of the fitted plan"),
     "fit_chamfer_mean_px": ("px", "mean distance between the input and the fitted "
@@ -113,7 +113,7 @@ TARGETS: dict[str, tuple[float, str]] = {
     "raster_ms": (60.0, "≤"),
     "spray_host_syncs": (0, "≤"),
     "speedup": (3.0, "≥"),
-    "fit_wall_s": (30.0, "≤"),
+    "fit_wall_s": (3.0, "≤"),  # a default fit of a 350-px tag (issue 32)
     "recording_ratio": (1.1, "≤"),
     "tag_300_steps_s": (30.0, "≤"),  # on a CUDA GPU
     "queue_lost": (0, "≤"),

@@ -28,16 +28,24 @@ def default_fit_input() -> str:
     return source
 
 
-def bench_fit(input: str | None = None, steps: int = 300, size: int = 350,
+def bench_fit(input: str | None = None, steps: int | None = None, size: int = 350,
               device: str = "cpu") -> dict[str, float | str]:
-    """Wall time of a full fit (default settings) and its quality figures, with the plan's
-    size (lognormals) beside them."""
+    """Job time of a full fit (the fit kind's default settings, ``steps`` if given) and its
+    quality figures, with the plan's size (lognormals) beside them. The job runs with a
+    fit's default thread count, as ``inkmotion run fit`` does (not ``bench --threads``,
+    which sets the other figures' torch threads)."""
+    from dataclasses import fields
+
+    from inkmotion.devices import DEFAULT_THREADS
     from inkmotion.inputs.sources import is_scheme
     from inkmotion.jobs.shell import run_job
+    from inkmotion.kinds.fit import FitParams
 
     source = input or default_fit_input()
+    if steps is None:
+        steps = next(f.default for f in fields(FitParams) if f.name == "steps")
     spec = JobSpec(kind="fit", inputs={"drawing": source}, device=device,
-                   params={"steps": steps, "size": size})
+                   params={"steps": steps, "size": size}, threads=DEFAULT_THREADS)
     with tempfile.TemporaryDirectory() as tmp:
         report = run_job(spec, Path(tmp) / "out")
     suffix = "" if size == 350 else f"_{size}px"

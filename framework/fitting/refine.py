@@ -23,9 +23,10 @@ another part of the path), else at the nearest fitted sample. The sub-movement i
 the pen most at t*, argmax_i Λ_i(t*)·|d_i| (the lognormal
 speed profile of eq. "velocity" times its amplitude), is split at q: targets
 …, p_{i−1}, q, p_i, … with δ_i halved on both halves and Ac, T of sub-movement i copied
-to both; the two halves share the time of the one they replace (each overlaps by Δt_i/2:
-T_end and every later onset stay put, and a correction costs the motion no time until
-the refit decides it needs some), or, under spec version 4's 'budget' rule, both copy
+to both; under 'hand' sparsity the two halves share most of the time of the one they
+replace (each overlaps by ¾·Δt_i: a correction costs the motion half the time a whole new
+stroke would), except where the miss is beyond the goal's max distance (such an excursion
+needs time of its own to be reached), and under spec version 4's 'budget' rule both copy
 Δt_i.
 
 Merging. Where Δt_i (i ≥ 2) is within 1e-6 of the floor, target p_{i−1}, where
@@ -155,19 +156,21 @@ def _rebuild(plan: MotorPlan, points: torch.Tensor, delta_t: torch.Tensor,
     return MotorPlan(points, delta_t, delta, ac, T, plan.width)
 
 
-#: ``keep_time`` splits: each half overlaps by this share of the Δt it replaces
-SPLIT_SHARE = float(__import__("os").environ.get("INKMOTION_SPLIT_SHARE", "0.5"))
+#: ``keep_time`` splits: each half overlaps by this share of the Δt it replaces, so T_end
+#: grows by half the replaced overlap instead of all of it (½: no growth, measured on the
+#: development set: the halves then ran together and cut the hook they were to reach)
+SPLIT_SHARE = 0.75
 
 
 def split_move(plan: MotorPlan, i: int, q: np.ndarray, keep_time: bool = False) -> MotorPlan:
     """``plan`` with sub-movement ``i`` (0-based) split at the new target ``q`` (2,); a 3-D
     plan's new target takes the radius half-way between its neighbours.
 
-    ``keep_time``: the two halves share the time of the sub-movement they replace, each
-    with half its overlap Δt_i (at least the floor), so every later onset, and T_end, stay
-    where they were (t0_{i+1} = t0_{i−1} + (Δt_i/2 + Δt_i/2)·T); the first sub-movement,
-    whose Δt is unused, hands its second half an overlap of ½. Otherwise both halves
-    copy Δt_i (spec version 4), and T_end grows by Δt_i·T_i."""
+    ``keep_time``: the two halves share most of the time of the sub-movement they
+    replace, each with :data:`SPLIT_SHARE` of its overlap Δt_i (at least the floor), so
+    every later onset, and T_end, move by (2·SPLIT_SHARE − 1)·Δt_i·T_i instead of
+    Δt_i·T_i; the first sub-movement, whose Δt is unused, hands its second half an
+    overlap of SPLIT_SHARE. Otherwise both halves copy Δt_i (spec version 4)."""
     p = plan.detached()
     new = torch.as_tensor(np.asarray(q, dtype=np.float64)[:2], dtype=p.points.dtype,
                           device=p.points.device)
@@ -269,13 +272,17 @@ def merge_pinned(plan: MotorPlan, keep: set[int] | None = None,
 
 
 def insert_targets(plans: list[MotorPlan], misses: list[Miss],
-                   keep_time: bool = False) -> list[MotorPlan]:
+                   keep_time: bool = False, sequential_above: float = math.inf
+                   ) -> list[MotorPlan]:
     """``plans`` with one target inserted per miss (module docstring), latest time first
-    within a path so earlier indices stay valid; ``keep_time``: see :func:`split_move`."""
+    within a path so earlier indices stay valid; ``keep_time``: see :func:`split_move`,
+    except for misses farther than ``sequential_above`` px (an excursion that big needs
+    time of its own to be reached)."""
     out = list(plans)
     for miss in sorted(misses, key=lambda m: (m.path, -m.time)):
         i = dominant_move(out[miss.path], miss.time)
-        out[miss.path] = split_move(out[miss.path], i, miss.point, keep_time)
+        out[miss.path] = split_move(out[miss.path], i, miss.point,
+                                    keep_time and miss.distance <= sequential_above)
     return out
 
 

@@ -47,7 +47,7 @@ import numpy as np
 from inkmotion.events import StepState, wants
 from inkmotion.fitting.objective import Objective
 from inkmotion.fitting.optimise import FitResult, OptimiserSettings, Request, optimise
-from inkmotion.fitting.quality import REFERENCE_SIZE
+from inkmotion.fitting.quality import GOAL_MAX_PX, REFERENCE_SIZE
 from inkmotion.fitting.refine import (
     budget,
     fewest_moves,
@@ -163,14 +163,16 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     ``s.protect_corners``, and at least ``fewest`` sub-movements in all); returns the
     plans, inserted and merged counts. ``shared_time`` (default: under 'hand' sparsity): a
     split sub-movement's halves share its time (:func:`~inkmotion.fitting.refine.
-    split_move`), else each copies its overlap."""
+    split_move`), else each copies its overlap; a miss beyond the goal's max distance
+    (8 px at 350) always gets halves with time of their own."""
     from inkmotion.outputs.sampling import on_cpu
 
     device, dtype = plans[0].points.device, plans[0].points.dtype
     cpu = [on_cpu(p) for p in plans]
     misses = worst_misses(strokes, cpu, above=above, separation=s.separation, limit=limit)
     shared = s.sparsity == "hand" if shared_time is None else shared_time
-    cpu = insert_targets(cpu, misses, keep_time=shared)
+    cpu = insert_targets(cpu, misses, keep_time=shared,
+                         sequential_above=GOAL_MAX_PX * size / REFERENCE_SIZE)
     merged = 0
     if s.merge:
         room = sum(p.m for p in cpu) - fewest
