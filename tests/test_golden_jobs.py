@@ -25,7 +25,11 @@ machines and not on a third (an AVX-512 FP16 Xeon), where its virtual targets mo
 0.09 px and its report figures up to 0.6 % under four MKL code paths: the fit's plan is
 compared as drawn motion (``plan_compare``), its figures within 3 %, and the numbers
 quoted in its edits' explanations within that or their last printed digit. A change of
-behaviour moves them by far more."""
+behaviour moves them by far more. Issue 32 moved the fit's last bits on every machine (the
+multi-scale MSE's levels by elementwise ops instead of matrix products, so that the thread
+count and the BLAS code path no longer move them): its figures moved by at most 1.1 % and
+its count of speed peaks by one (a peak at the prominence threshold), which the counts
+read off with a threshold may (``THRESHOLD_COUNTS``)."""
 
 from __future__ import annotations
 
@@ -67,6 +71,10 @@ PLAN_TOLERANCE_PX = {"tag": 1e-3, "abstract": 0.05}
 RELATIVE = {"fit": 3e-2, "tag": 1e-5, "abstract": 1e-3, "simulate": 1e-4, "evaluate": 5e-2}
 #: a number quoted in a report's sentence (an edit's explanation)
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
+#: counts read off the motion with a threshold (a speed peak counts when its prominence
+#: reaches 5 % of the peak speed): a peak at the threshold comes and goes with the last
+#: bits, so these may differ by one
+THRESHOLD_COUNTS = {"speed_peaks", "fit_speed_peaks"}
 
 
 def assert_close(new: object, old: object, rel: float, where: str = "") -> None:
@@ -83,6 +91,8 @@ def assert_close(new: object, old: object, rel: float, where: str = "") -> None:
         assert new == pytest.approx(old, rel=rel, abs=1e-12), where
     elif isinstance(old, str) and rel > 0:
         assert_same_sentence(new, old, rel, where)
+    elif where.rpartition(".")[2] in THRESHOLD_COUNTS and rel > 0:
+        assert isinstance(new, int) and abs(new - old) <= 1, where  # type: ignore[operator]
     else:
         assert new == old, where
 
