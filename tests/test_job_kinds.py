@@ -48,7 +48,7 @@ def test_v1_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     assert_same_motion(tmp_path / "o" / "plan.json", V1 / "plan.json")
     written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
-    assert written["version"] == 4 and written["params"]["initialiser"]["threshold"] == 1.0
+    assert written["version"] == 5 and written["params"]["initialiser"]["threshold"] == 1.0
     assert written["params"]["initialiser"]["bend"] is False
     assert written["params"]["refine"] == 0 and written["params"]["smooth_over"] == "path"
 
@@ -56,16 +56,18 @@ def test_v1_job_json_reproduces_its_plan(tmp_path: Path) -> None:
 def test_v3_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     """A job.json of spec version 3 (plan edits kept blindly, no trace term) still gives
     its plan.json (the same moves, the motion within what another machine's kernels move
-    it), and is written back as version 4 with those version-3 settings spelled out."""
+    it), and is written back as the current version with those version-3 settings spelled
+    out."""
     res = inkmotion("run", "--config", str(V3 / "job.json"), "--out", str(tmp_path / "o"),
                     "--no-record")
     assert res.returncode == 0, res.stderr
     assert_same_motion(tmp_path / "o" / "plan.json", V3 / "plan.json",
                        BLIND_EDITS_TOLERANCE_PX)
     written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
-    assert written["version"] == 4
+    assert written["version"] == 5
     assert written["params"]["w_trace"] == 0.0 and written["params"]["rollback"] is False
     assert written["params"]["keep_corners"] is False
+    assert written["params"]["sparsity"] == "budget" and written["params"]["tolerance"] == 0
     bare = JobSpec.from_dict({"version": 4, "kind": "fit", "inputs": {"drawing": "x"},
                               "params": {}})
     assert bare.params == {}  # the spec leaves the defaults to the kind
@@ -74,11 +76,11 @@ def test_v3_job_json_reproduces_its_plan(tmp_path: Path) -> None:
 def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     """A version-2 spec that leaves the changed defaults out runs with version 2's (declared
     on the parameters, ``earlier``); one that gives them keeps what it gives; other kinds
-    are unchanged; job.json spells them out as version 4."""
+    are unchanged; job.json spells them out as version 5."""
     def full(spec: dict) -> dict:
         job = resolve(JobSpec.from_dict(spec), check_inputs=False)
         written = job.full_spec()
-        assert written.version == 4
+        assert written.version == 5
         return written.params
 
     bare = full({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
@@ -138,8 +140,8 @@ def test_bad_spec_fields() -> None:
         resolve(JobSpec("fit", {}))
     with pytest.raises(SpecError, match="has no input.s. photo"):
         resolve(JobSpec("fit", {"drawing": "text:hi", "photo": "x.png"}))
-    with pytest.raises(SpecError, match="spec version 5 is not supported"):
-        JobSpec.from_dict({"version": 5, "kind": "fit", "inputs": {}})
+    with pytest.raises(SpecError, match="spec version 6 is not supported"):
+        JobSpec.from_dict({"version": 6, "kind": "fit", "inputs": {}})
     with pytest.raises(SpecError, match="seed=-1 must be a non-negative integer"):
         JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {}, "seed": -1})
 
@@ -162,7 +164,7 @@ def test_config_then_options_override(tmp_path: Path) -> None:
     assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0}
     assert spec.version == 2  # the version-1 file keeps the defaults of its day
     full = resolve(spec, check_inputs=False).full_spec()
-    assert full.version == 4 and full.params["steps"] == 7
+    assert full.version == 5 and full.params["steps"] == 7
     assert full.params["initialiser"]["bend"] is False and full.params["refine"] == 0
 
 

@@ -72,8 +72,8 @@ class FitResult:
 
     def to_data(self) -> dict[str, Any]:
         """This result as plain data — tensors, numbers, strings, lists and dicts — for a
-        checkpoint, which loads with ``torch.load(weights_only=True)``
-        (:mod:`inkmotion.jobs.checkpoint`); :meth:`from_data` makes it again, bit for bit."""
+        checkpoint, which loads with ``torch.load(weights_only=True)`` (the job's
+        checkpoints are data, never code); :meth:`from_data` makes it again, bit for bit."""
         plans = [{"tensors": [p.points, p.delta_t, p.delta, p.ac, p.T], "width": p.width}
                  for p in self.plans]
         return {"plans": plans, "initial_terms": self.initial_terms,
