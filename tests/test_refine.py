@@ -118,6 +118,32 @@ def test_an_edit_is_kept_only_with_a_margin_round_off_cannot_cross() -> None:
         assert entry["edit"]["kept"] is kept and rolled is not kept, gain_past_bar
 
 
+def test_an_edit_that_makes_a_poor_fit_good_is_kept_whatever_it_cost() -> None:
+    """'hand': 4 targets that bring the worst miss from 8.5 px to 7.7 px gain less than the
+    0.42 they must buy, but the fit went from poor to good: kept. Down to 7.9 px (within
+    the goal but not by its margin) or from 10.9 to 8.6 px (still poor): rolled back."""
+    from inkmotion.fitting.optimise import FitResult
+    from inkmotion.fitting.stages import SPARSITY, _Edits, _judge
+
+    result = lambda: FitResult([], {}, {}, [], [], torch.zeros(1, 1), 0.0, 1)  # noqa: E731
+    for before, after, kept in (((0.55, 8.5), (0.41, 7.7), True),
+                                ((0.55, 8.5), (0.50, 7.9), False),
+                                ((0.60, 10.9), (0.55, 8.6), False)):
+        edits = _Edits()
+        _judge(edits, result(), before, 350.0, {}, SPARSITY["hand"])
+        edits.pending = {"inserted": 4, "merged": 0}
+        entry: dict = {}
+        _judge(edits, result(), after, 350.0, entry, SPARSITY["hand"])
+        assert entry["edit"]["kept"] is kept, (before, after)
+        assert ("within the 8.0-px goal" in entry["edit"]["why"]) is kept
+        edits = _Edits()  # spec 4's rule never rescues
+        _judge(edits, result(), before, 350.0, {}, SPARSITY["budget"])
+        edits.pending = {"inserted": 4, "merged": 0}
+        entry = {}
+        _judge(edits, result(), after, 350.0, entry, SPARSITY["budget"])
+        assert "within the" not in entry["edit"]["why"]
+
+
 def test_a_missed_hook_gets_a_target_on_the_right_sub_movement() -> None:
     """The input goes out to a hook at (50, 30) and back; the plan goes straight past it.
     The worst miss is the hook's tip, bracketed by where the fit is still on the trace,
