@@ -296,23 +296,68 @@ MIN_KEPT = 0.75
 #: sub-movements a very small plan may gain beyond :data:`MAX_GROWTH` (a 5-move tag with a
 #: hook the DCE missed needs one more, which 25 % of 5 does not give)
 SMALL_PLAN_EXTRA = 2
-#: "very small": fewer initial sub-movements than this ('hand' sparsity; 'budget', the
-#: rule of spec version 4, gave the extra to every plan)
+#: "very small": fewer initial sub-movements than this (under a rule whose
+#: ``extra_small_only``; spec version 4's 'budget' gave the extra to every plan)
 SMALL_PLAN_BELOW = 8
 
 
-def growth_margin(moves: int, sparsity: str = "hand") -> int:
-    """The targets all edits of a fit together may add to a plan of ``moves`` sub-movements:
-    :data:`MAX_GROWTH` of them (rounded down), plus :data:`SMALL_PLAN_EXTRA` for a plan of
-    fewer than :data:`SMALL_PLAN_BELOW` ('hand') or for every plan ('budget'): the fit's
-    density goal, m within 1.25× the authors' count, +2 only where that count is below 8."""
-    extra = SMALL_PLAN_EXTRA if sparsity == "budget" or moves < SMALL_PLAN_BELOW else 0
-    return math.floor(MAX_GROWTH * moves) + extra
+@dataclass(frozen=True)
+class Sparsity:
+    """How sparse the default mode keeps a plan (the fit's ``--sparsity``): every way the
+    rules differ, in one place.
+
+    A target is inserted only where the input is farther than ``insert_above`` px from the
+    fit (px on a 350-px canvas, scaled with it when ``scaled``), and an edit that inserts k
+    targets is kept only if it lowers the criterion (:func:`inkmotion.fitting.quality.
+    criterion`, goal-normalised) by at least ``gain_per_target`` × k + ``margin``. The
+    margin is the decision's distance from round-off: a gain that clears the bar by less
+    than it is not taken, so last-bit differences of another machine's arithmetic
+    (which a refit carries into the criterion's last digits) do not flip the decision."""
+
+    insert_above: float
+    gain_per_target: float
+    margin: float
+    scaled: bool
+    #: an edit that brings a fit's worst miss from above the goal's max distance to at
+    #: least this share below it is kept whatever it gained per target (0: never)
+    rescue_margin: float = 0.0
+    #: split halves share the replaced sub-movement's time (:func:`split_move`)
+    shared_time: bool = False
+    #: the growth margin's +2 only for plans below :data:`SMALL_PLAN_BELOW` (else every plan)
+    extra_small_only: bool = False
+    #: merges leave at least this share of the initial sub-movements (0: no floor)
+    min_kept: float = 0.0
+    #: a rolled-back insertion of shared-time splits is tried once more with sequential ones
+    retry_sequential: bool = False
 
 
-def fewest_moves(moves: int) -> int:
-    """The fewest sub-movements merges may leave of a plan of ``moves``: ⌈0.75·moves⌉."""
-    return math.ceil(MIN_KEPT * moves - 1e-9)
+#: 'hand': a target only for a miss a person would see — 3 px, the width of the pen, on a
+#: 350-px canvas — and only if it buys 0.1 of the criterion (0.06 px of mean or 0.8 px of
+#: max distance) or turns a poor fit (worst miss above 8 px) into a good one (below
+#: 7.76 px), the plan within 1.25× its initial size (+2 below 8) and 0.75× after merges;
+#: 'budget': spec version 4's rule (misses above 2 px, 0.05 per target, no margin, 25 % + 2
+#: for every plan), which spent its whole budget on most inputs
+SPARSITY = {"hand": Sparsity(3.0, 0.1, 0.02, True, rescue_margin=0.03, shared_time=True,
+                             extra_small_only=True, min_kept=MIN_KEPT,
+                             retry_sequential=True),
+            "budget": Sparsity(2.0, 0.05, 0.0, False)}
+
+
+def growth_margin(moves: int, rule: Sparsity | str = "hand") -> int:
+    """The targets all edits of a fit together may add to a plan of ``moves`` sub-movements
+    under ``rule`` (a :class:`Sparsity` or its name): :data:`MAX_GROWTH` of them (rounded
+    down), plus :data:`SMALL_PLAN_EXTRA` for a plan of fewer than :data:`SMALL_PLAN_BELOW`
+    ('hand') or for every plan ('budget'): the fit's density goal, m within 1.25× the
+    authors' count, +2 only where that count is below 8."""
+    rule = SPARSITY[rule] if isinstance(rule, str) else rule
+    small = moves < SMALL_PLAN_BELOW or not rule.extra_small_only
+    return math.floor(MAX_GROWTH * moves) + (SMALL_PLAN_EXTRA if small else 0)
+
+
+def fewest_moves(moves: int, share: float = MIN_KEPT) -> int:
+    """The fewest sub-movements merges may leave of a plan of ``moves``: ⌈share·moves⌉
+    (0 for no floor)."""
+    return math.ceil(share * moves - 1e-9)
 
 
 def budget(moves: int, fraction: float) -> int:

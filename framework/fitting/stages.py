@@ -4,9 +4,9 @@ Modes (the fit job's ``--targets``):
 
 - ``default``: the initialiser's plan is fitted for ``first_share`` of the steps, edited
   once per refinement round (targets inserted at the worst misses above the
-  :class:`Sparsity` rule's ``insert_above`` px, and pinned pairs merged unless their target
-  is a salient corner of the input), and
-  fitted on for the rest of the steps, split evenly over the rounds. With 0 rounds it is
+  :class:`~inkmotion.fitting.refine.Sparsity` rule's ``insert_above`` px, and pinned
+  pairs merged unless their target is a salient corner of the input), and fitted on for
+  the rest of the steps, split evenly over the rounds. With 0 rounds it is
   one plain fit. With ``rollback`` (version-4 specs on) every edit is judged after its
   refit against the input: it is kept only when the fit's criterion (Chamfer mean / 0.6
   px + max / 8 px at 350 px, :mod:`inkmotion.fitting.quality`) fell by at least the
@@ -49,6 +49,8 @@ from inkmotion.fitting.objective import Objective
 from inkmotion.fitting.optimise import FitResult, OptimiserSettings, Request, optimise
 from inkmotion.fitting.quality import GOAL_MAX_PX, REFERENCE_SIZE
 from inkmotion.fitting.refine import (
+    SPARSITY,
+    Sparsity,
     budget,
     fewest_moves,
     growth_margin,
@@ -61,37 +63,6 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
 MAX_AUTO_ROUNDS = 12
-
-
-@dataclass(frozen=True)
-class Sparsity:
-    """How sparse the default mode keeps a plan (the fit's ``--sparsity``).
-
-    A target is inserted only where the input is farther than ``insert_above`` px from the
-    fit (px on a 350-px canvas, scaled with it when ``scaled``), and an edit that inserts k
-    targets is kept only if it lowers the criterion (:func:`inkmotion.fitting.quality.
-    criterion`, goal-normalised) by at least ``gain_per_target`` × k + ``margin``. The
-    margin is the decision's distance from round-off: a gain that clears the bar by less
-    than it is not taken, so last-bit differences of another machine's arithmetic
-    (which a refit carries into the criterion's last digits) do not flip the decision."""
-
-    insert_above: float
-    gain_per_target: float
-    margin: float
-    scaled: bool
-    #: an edit that brings a fit's worst miss from above the goal's max distance to at
-    #: least this share below it is kept whatever it gained per target (0: never)
-    rescue_margin: float = 0.0
-
-
-#: 'hand': a target only for a miss a person would see — 3 px, the width of the pen, on a
-#: 350-px canvas — and only if it buys 0.1 of the criterion (0.06 px of mean or 0.8 px of
-#: max distance) or turns a poor fit (worst miss above 8 px) into a good one (below
-#: 7.76 px), the plan within 1.25× its initial size (+2 below 8) and 0.75× after merges;
-#: 'budget': spec version 4's rule (misses above 2 px, 0.05 per target, no margin, 25 % + 2
-#: for every plan), which spent its whole budget on most inputs
-SPARSITY = {"hand": Sparsity(3.0, 0.1, 0.02, True, 0.03),
-            "budget": Sparsity(2.0, 0.05, 0.0, False)}
 
 
 @dataclass(frozen=True)
@@ -165,7 +136,7 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     """Insert at most ``limit`` targets at the worst misses above ``above`` px, then merge
     pinned pairs (keeping the salient corners of the input on a ``size``-px canvas when
     ``s.protect_corners``, and at least ``fewest`` sub-movements in all); returns the
-    plans, inserted and merged counts. ``shared_time`` (default: under 'hand' sparsity): a
+    plans, inserted and merged counts. ``shared_time`` (default: the sparsity rule's): a
     split sub-movement's halves share its time (:func:`~inkmotion.fitting.refine.
     split_move`), else each copies its overlap; a miss beyond the goal's max distance
     (8 px at 350) always gets halves with time of their own."""
@@ -174,7 +145,7 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     device, dtype = plans[0].points.device, plans[0].points.dtype
     cpu = [on_cpu(p) for p in plans]
     misses = worst_misses(strokes, cpu, above=above, separation=s.separation, limit=limit)
-    shared = s.sparsity == "hand" if shared_time is None else shared_time
+    shared = s.rule.shared_time if shared_time is None else shared_time
     cpu = insert_targets(cpu, misses, keep_time=shared,
                          sequential_above=GOAL_MAX_PX * size / REFERENCE_SIZE)
     merged = 0
@@ -264,16 +235,16 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     goal = GOAL_MAX_PX * size / REFERENCE_SIZE
     # a poor fit made good: the worst miss, a feature a person sees, is now drawn within
     # the goal (by a margin round-off cannot cross), whatever the targets cost
+    gained = after <= before - needed - rule.margin
     rescued = (rule.rescue_margin > 0 and edits.quality[1] > goal
                and quality[1] <= goal * (1 - rule.rescue_margin) and after < before)
-    if after <= before - needed - rule.margin or rescued:
+    if gained or rescued:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
                                 f"{edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
                                 f"{quality[0]:.2f}/{quality[1]:.1f} px)"
-                                + (f", the worst miss now within the {goal:.1f}-px goal"
-                                   if rescued and after > before - needed - rule.margin
-                                   else ""))
+                                + ("" if gained else
+                                   f", the worst miss now within the {goal:.1f}-px goal"))
         edits.kept, edits.quality = result, quality
         return result, False
     entry["edit"]["kept"] = False
@@ -285,7 +256,7 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
                                if needed and after < before else ""))
     if edits.pending.get("merged", 0) > 0:
         edits.merges_allowed = False
-    elif rule is SPARSITY["hand"] and not edits.sequential:
+    elif rule.retry_sequential and not edits.sequential:
         edits.sequential = True  # once more, each new target with time to reach it
     else:
         edits.frozen = True
@@ -464,7 +435,7 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             above = rule.insert_above * (size / REFERENCE_SIZE if rule.scaled else 1.0)
             limit = budget(initial_moves, refine.insert_share) - added
             if rollback:  # a worse edit is undone: the whole density margin may be tried
-                limit = growth_margin(initial_moves, refine.sparsity) - added
+                limit = growth_margin(initial_moves, refine.rule) - added
         carry, edits.pending = None, None
         if rollback and edits.frozen:
             plans, inserted, merged = result.plans, 0, 0
@@ -472,8 +443,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             allow_merge = refine.merge and refine.mode != "auto" and edits.merges_allowed
             plans, inserted, merged = edit(result.plans, strokes,
                                            replace(refine, merge=allow_merge), above, limit,
-                                           size, fewest_moves(initial_moves)
-                                           if refine.sparsity == "hand" else 0,
+                                           size,
+                                           fewest_moves(initial_moves, refine.rule.min_kept),
                                            None if not edits.sequential else False)
         added += inserted
         if rollback:

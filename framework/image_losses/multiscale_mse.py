@@ -102,12 +102,10 @@ def pyramid_operators(n: int, levels: int, dtype: torch.dtype,
 
 @functools.cache
 def _taps() -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """The 5 blur weights k (:func:`_gaussian_1d`'s, as Python floats), and the 6 weights of
-    blur-then-pair-mean folded into one stride-2 filter: ½·(k0, k0+k1, k1+k2, k2+k3,
-    k3+k4, k4). Computed once, with ``math``: no tensor is read inside a step."""
-    x = [j - (KERNEL_SIZE - 1) / 2 for j in range(KERNEL_SIZE)]
-    g = [math.exp(-0.5 * (v / BLUR_SIGMA) ** 2) for v in x]
-    k = tuple(v / math.fsum(g) for v in g)
+    """The 5 blur weights k (:func:`_gaussian_1d` in float64, as Python floats), and the 6
+    weights of blur-then-pair-mean folded into one stride-2 filter: ½·(k0, k0+k1, k1+k2,
+    k2+k3, k3+k4, k4). Read once per process: no tensor is read inside a step."""
+    k = tuple(_gaussian_1d(torch.float64, torch.device("cpu")).tolist())
     return k, tuple(0.5 * a for a in (k[0], k[0] + k[1], k[1] + k[2], k[2] + k[3],
                                       k[3] + k[4], k[4]))
 
