@@ -31,6 +31,7 @@ from inkmotion.cli import (
     run,
     samples,
     submit,
+    trace,
     view,
     worker,
 )
@@ -131,7 +132,7 @@ def bench_cmd(
 def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
-    for group in (run, submit, evaluate, benchmark, samples, render, jobs, worker, view,
+    for group in (run, submit, trace, evaluate, benchmark, samples, render, jobs, worker, view,
                   gallery, clip, robot):
         group.register(app)
 

@@ -27,6 +27,9 @@ class Traces:
     width: float | None = None  # canvas size once fitted
     height: float | None = None
     meta: dict = field(default_factory=dict)
+    #: the ink (H, W) in [0, 1] of the picture the strokes were traced from, in the same
+    #: coordinates (pixel centres at half-integers); None for recorded traces
+    picture: np.ndarray | None = None
 
     @property
     def n_points(self) -> int:
@@ -63,7 +66,7 @@ class Traces:
         hi = np.max([s[:, :2].max(axis=0) for s in kept], axis=0)
         if np.max(hi - lo) <= 1e-12:
             raise InputError(f"{self.source}: all points are equal, so there is nothing to draw.")
-        return Traces(kept, self.source, self.width, self.height, dict(self.meta))
+        return Traces(kept, self.source, self.width, self.height, dict(self.meta), self.picture)
 
     def fit_to_canvas(self, size: float, margin: float = 0.08) -> Traces:
         """Scale uniformly (aspect kept) so the bounding box fills a canvas of longer side
@@ -83,4 +86,28 @@ class Traces:
             if s.shape[1] == 3:
                 out[:, 2] = s[:, 2] * scale
             strokes.append(out)
-        return Traces(strokes, t.source, float(canvas[0]), float(canvas[1]), dict(t.meta))
+        meta = dict(t.meta)
+        picture = None
+        if t.picture is not None:
+            picture = _warp(t.picture, scale, offset - lo * scale, canvas)
+            meta["canvas_from_picture"] = {"scale": scale,
+                                           "offset": (offset - lo * scale).tolist()}
+        return Traces(strokes, t.source, float(canvas[0]), float(canvas[1]), meta, picture)
+
+
+def _warp(image: np.ndarray, scale: float, shift: np.ndarray, canvas: np.ndarray) -> np.ndarray:
+    """``image`` mapped by p ↦ scale·p + shift (pixel centres at half-integers) onto a
+    canvas (width, height): area-averaged when it shrinks, bilinear otherwise."""
+    import cv2
+
+    h, w = image.shape
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    sx, sy = size[0] / w, size[1] / h
+    resized = cv2.resize(image.astype(np.float32), size,
+                         interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
+    # resized pixel u has its centre at (u + ½)/s in the image: canvas = scale·that + shift
+    m = np.array([[scale / sx, 0.0, shift[0] + 0.5 * scale / sx - 0.5],
+                  [0.0, scale / sy, shift[1] + 0.5 * scale / sy - 0.5]])
+    return cv2.warpAffine(resized, m, (int(canvas[0]), int(canvas[1])),
+                          flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                          borderValue=0.0)

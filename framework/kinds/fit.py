@@ -78,6 +78,13 @@ class FitParams(OptimisationParams):
                           choices=("hand", "budget"), earlier={4: "budget"})
     reader: PluginChoice | None = plugin_param(
         "reader", None, "Reader plugin (default: the first that accepts the input).")
+    tracer: PluginChoice = plugin_param("tracer", "skeleton", "Tracer plugin: how a picture "
+                                        "input (PNG, JPEG, ...) becomes strokes.")
+    invert: bool = param(False, "A picture input is light ink on dark paper (without it, "
+                         "dark ink on light paper, the other way round detected).")
+    varying_width: bool = param(False, "A picture input's ink width along each stroke "
+                                "becomes the plan's radius (a brush drawing fitted as one); "
+                                "without it the pen is the ink's median width.")
     initialiser: PluginChoice = plugin_param("initialiser", "dce", "Initialiser plugin.")
     losses: list[PluginChoice] = plugin_param("image-loss", "mse",
                                               "Image-loss plugin (repeatable).", many=True,
@@ -153,26 +160,30 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
     from inkmotion.fitting.objective import Objective
     from inkmotion.fitting.quality import REFERENCE_SIZE
     from inkmotion.kinds.optimisation import image_losses, staged_problem
-    from inkmotion.kinds.read import read_input
     from inkmotion.plugin_host.protocols import JobInputs, Reference
     from inkmotion.rendering.drawing import render_polylines
 
     p: FitParams = job.params
     dtype = torch.float32
     source = job.spec.inputs["drawing"]
-    traces = read_input(source, reader=p.reader.name if p.reader else None)
-    traces = traces.fit_to_canvas(p.size)
+    traces = _read(job, source).fit_to_canvas(p.size)
     canvas = (int(traces.width), int(traces.height))
+    width = _pen_width(traces, p)
     renderer = job.plugin(p.renderer)
     initialise = job.plugin(p.initialiser)
-    options = dict(width=p.width, dtype=dtype, device=job.device, **job.options(p.initialiser))
+    options = dict(width=width, dtype=dtype, device=job.device, **job.options(p.initialiser))
     plans = initialise(JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
                        **options)
     asked = _targets_note(p, plans)
-    target = render_polylines(renderer, traces.strokes, p.width, canvas, dtype, job.device)
     tolerance = p.tolerance * max(canvas) / REFERENCE_SIZE  # canvas px
-    within = target if tolerance == 0 else render_polylines(
-        renderer, traces.strokes, p.width + 2 * tolerance, canvas, dtype, job.device)
+    if traces.picture is not None:  # the picture itself is what the fit is judged against
+        target = torch.as_tensor(traces.picture, dtype=dtype, device=job.device)
+        within = target if tolerance == 0 else torch.as_tensor(
+            widened(traces.picture, tolerance), dtype=dtype, device=job.device)
+    else:
+        target = render_polylines(renderer, traces.strokes, width, canvas, dtype, job.device)
+        within = target if tolerance == 0 else render_polylines(
+            renderer, traces.strokes, width + 2 * tolerance, canvas, dtype, job.device)
     objective = Objective(renderer, image_losses(job, Reference(image=within)), canvas,
                           p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace),
                           trace=_trace_term(traces, plans, dtype, job.device, tolerance)
@@ -189,6 +200,47 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
 
     return staged_problem(job, plans, objective, p.optimiser_settings(), strokes,
                           p.refine_settings()), finish
+
+
+def _read(job: Job, source: str) -> Any:
+    """The traces of ``source``: a picture through the job's tracer (``--invert``,
+    ``--varying-width``), anything else through the readers."""
+    from inkmotion.kinds.read import read_input
+    from inkmotion.samples import locate
+    from inkmotion.tracing.picture import is_picture, read_picture
+
+    p: FitParams = job.params
+    path = locate(source)
+    if p.reader is None and is_picture(path):
+        import time
+
+        start = time.perf_counter()
+        picture = read_picture(path, invert=p.invert)
+        traces = job.plugin(p.tracer)(picture, varying_width=p.varying_width,
+                                      **job.options(p.tracer))
+        traces.meta.setdefault("extraction", {})["seconds_with_decoding"] = round(
+            time.perf_counter() - start, 4)
+        return traces
+    return read_input(source, reader=p.reader.name if p.reader else None)
+
+
+def _pen_width(traces: Any, p: FitParams) -> float:
+    """The pen's width on the canvas: ``--width``, or for a picture its ink's median width
+    (scaled to the canvas), what the picture says the pen was."""
+    scale = traces.meta.get("canvas_from_picture", {}).get("scale")
+    if scale is None:
+        return p.width
+    return max(1.0, traces.meta["extraction"]["ink_width_px"]["median"] * scale)
+
+
+def widened(ink: Any, by: float) -> Any:
+    """The ink (H, W) grown by ``by`` px on every side (a grey dilation by a disc)."""
+    import cv2
+    import numpy as np
+
+    r = max(1, int(round(by)))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return cv2.dilate(np.asarray(ink, dtype=np.float32), disc)
 
 
 def _ignored_options(p: FitParams) -> list[str]:
@@ -276,6 +328,10 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
         report["recorded"] = recorded
         metrics["recorded_peaks"] = recorded["recorded_peaks"]
         metrics["matched_peaks"] = recorded["matched_peaks"]
+    if "extraction" in traces.meta:  # a picture: how it was traced, and where it lies
+        report["extraction"] = {**traces.meta["extraction"],
+                                "canvas_from_picture": traces.meta["canvas_from_picture"],
+                                "pen_width_px": plans[0].width if plans else None}
     (folder / "input.json").write_text(json.dumps(
         {"canvas": {"width": canvas[0], "height": canvas[1]},
          "traces": [s.tolist() for s in traces.strokes]}))

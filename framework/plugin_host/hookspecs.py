@@ -23,6 +23,7 @@ if TYPE_CHECKING:
         Renderer,
         RobotBackend,
         Saliency,
+        Tracer,
     )
 
 PROJECT = "inkmotion"
@@ -38,6 +39,11 @@ def inkmotion_job_kinds() -> list[JobKind]:
 @hookspec
 def inkmotion_readers() -> list[Reader]:
     """Readers: parse an input (file path or ``scheme:value`` string) into traces."""
+
+
+@hookspec
+def inkmotion_tracers() -> list[Tracer]:
+    """Tracers: a picture of a line drawing -> traces (strokes, order, direction, width)."""
 
 
 @hookspec
@@ -69,6 +75,7 @@ def inkmotion_robot_backends() -> list[RobotBackend]:
 KIND_HOOKS: dict[str, str] = {
     "job-kind": "inkmotion_job_kinds",
     "reader": "inkmotion_readers",
+    "tracer": "inkmotion_tracers",
     "initialiser": "inkmotion_initialisers",
     "image-loss": "inkmotion_image_losses",
     "renderer": "inkmotion_renderers",

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from inkmotion.jobs.shell import Job
     from inkmotion.robot.types import RobotProgram
     from inkmotion.sigma_lognormal.plan import MotorPlan
+    from inkmotion.tracing.picture import Picture
 
 
 @dataclass
@@ -116,6 +117,17 @@ class Reader(Plugin, Protocol):
 
     def read(self, source: str) -> Traces:
         """Parse ``source``; raise :class:`inkmotion.errors.InputError` on bad input."""
+
+
+class Tracer(Plugin, Protocol):
+    """Turns a picture of a line drawing into traces: strokes in drawing order, each
+    begun where a hand begins it, with the ink's radius as a third column when asked."""
+
+    def __call__(self, picture: Picture, *, varying_width: bool = False,
+                 **options: Any) -> Traces:
+        """Traces of ``picture`` (:class:`inkmotion.tracing.picture.Picture`) in its pixels,
+        ``picture.ink`` attached as ``Traces.picture``; raise
+        :class:`inkmotion.errors.InputError` when no stroke can be traced."""
 
 
 class Initialiser(Plugin, Protocol):
@@ -209,6 +221,7 @@ class RobotBackendOptional(PluginOptional, Protocol):
 PROTOCOLS: dict[str, type] = {
     "job-kind": JobKind,
     "reader": Reader,
+    "tracer": Tracer,
     "initialiser": Initialiser,
     "image-loss": ImageLoss,
     "renderer": Renderer,
@@ -220,6 +233,7 @@ PROTOCOLS: dict[str, type] = {
 OPTIONAL: dict[str, type] = {
     "job-kind": JobKindOptional,
     "reader": PluginOptional,
+    "tracer": PluginOptional,
     "initialiser": PluginOptional,
     "image-loss": PluginOptional,
     "renderer": RendererOptional,

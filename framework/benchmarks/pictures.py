@@ -1,0 +1,199 @@
+"""Fits from pictures against the true trace: recorded drawings rendered as a scan would
+see them, fitted from the picture alone, and scored against the recording.
+
+``python -m inkmotion.benchmarks.pictures OUT SOURCE... [--steps N]`` renders each source
+at every :data:`SCANS` setting, runs ``inkmotion run fit`` on the picture (a separate
+process, as a user would) and prints a table; ``OUT/pictures.json`` holds every figure.
+
+Scores (fitted motion against the true trace, both on the fit's canvas):
+
+- Chamfer mean / max (px) (:mod:`inkmotion.geometry.chamfer`);
+- direction: the share of the true ink length (1-px samples) whose nearest fitted sample
+  travels the same way (positive dot product of the two tangents);
+- order: the share of pairs of true strokes that the motion reaches in their recorded
+  order (each stroke's median arrival time; 'n/a' for one stroke);
+- plan size m, T_end ratio, Δt at a bound, extraction seconds (in the fit process, so the
+  first extraction of a process, numba's compilation in skan included), wall seconds;
+- with ``--varying-width``, the IoU of the rendered motion and the picture's ink.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Scan:
+    """How a recorded drawing is rendered as a picture."""
+
+    name: str
+    size: int = 1000  # longer side, px
+    brush: float = 8.0  # ink width, px
+    blur: float = 0.0  # Gaussian sigma, px
+    noise: float = 0.0  # grey noise sigma (0..1 scale)
+    jpeg: int = 0  # JPEG quality, 0 for PNG
+    paper: float = 1.0  # paper grey
+    gradient: float = 0.0  # light falling off across the page (share of the paper grey)
+    varying: bool = False  # fit with --varying-width
+
+
+SCANS = (
+    Scan("clean-350-w2", size=350, brush=2.0),
+    Scan("scan-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.9,
+         gradient=0.25),
+    Scan("brush-1000-w16", size=1000, brush=16.0, blur=1.5, noise=0.03, jpeg=70, paper=0.85,
+         gradient=0.3),
+    Scan("photo-700-w5", size=700, brush=5.0, blur=1.0, noise=0.05, jpeg=70, paper=0.8,
+         gradient=0.4),
+)
+
+
+def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0) -> None:
+    """Draw ``strokes`` (picture px, pixel centres at half-integers) as ``scan`` says."""
+    import cv2
+
+    xs = np.concatenate([s[:, 0] for s in strokes])
+    ys = np.concatenate([s[:, 1] for s in strokes])
+    w, h = int(np.ceil(xs.max() + scan.size * 0.08)), int(np.ceil(ys.max() + scan.size * 0.08))
+    ink = np.zeros((h, w), np.uint8)
+    t = max(1, int(round(scan.brush)))
+    for s in strokes:
+        pts = np.round((s[:, :2] - 0.5) * 16).astype(np.int32)
+        cv2.polylines(ink, [pts], False, 255, t, cv2.LINE_AA, 4)
+    cover = ink.astype(np.float32) / 255.0
+    if scan.blur > 0:
+        cover = cv2.GaussianBlur(cover, (0, 0), scan.blur)
+    light = scan.paper * (1.0 - scan.gradient * np.linspace(0, 1, w)[None, :]
+                          * np.linspace(0.3, 1, h)[:, None])
+    grey = light * (1.0 - 0.85 * cover)
+    rng = np.random.default_rng(seed)
+    grey = grey + rng.normal(0.0, scan.noise, grey.shape) if scan.noise > 0 else grey
+    img = np.clip(grey * 255, 0, 255).astype(np.uint8)
+    if scan.jpeg:
+        cv2.imwrite(str(path), img, [cv2.IMWRITE_JPEG_QUALITY, scan.jpeg])
+    else:
+        cv2.imwrite(str(path), img)
+
+
+def _samples(csv: Path) -> list[np.ndarray]:
+    """The fitted motion's samples per path (k, 3): x, y and a global time order."""
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    paths = []
+    for i, p in enumerate(np.unique(data["path"])):
+        sel = data["path"] == p
+        order = i * 1e6 + data["t"][sel]
+        paths.append(np.column_stack((data["x"][sel], data["y"][sel], order)))
+    return paths
+
+
+def direction_and_order(truth: list[np.ndarray], motion: list[np.ndarray]
+                        ) -> tuple[float, float | None]:
+    """Module docstring: the direction share and the order share (None for one stroke)."""
+    from scipy.spatial import cKDTree
+
+    from inkmotion.geometry.chamfer import densify
+
+    pts = np.vstack(motion)
+    tangent = np.vstack([np.gradient(m[:, :2], axis=0) if len(m) > 1 else np.zeros((1, 2))
+                         for m in motion])
+    tree = cKDTree(pts[:, :2])
+    same = total = 0.0
+    arrival = []
+    for s in truth:
+        d = densify(s[:, :2], 1.0)
+        if len(d) < 2:
+            continue
+        tang = np.gradient(d, axis=0)
+        _, idx = tree.query(d)
+        seg = np.hypot(*tang.T)
+        agree = np.einsum("ij,ij->i", tang, tangent[idx]) > 0
+        same += float(seg[agree].sum())
+        total += float(seg.sum())
+        arrival.append(float(np.median(pts[idx, 2])))
+    pairs = [(i, j) for i in range(len(arrival)) for j in range(i + 1, len(arrival))]
+    order = (sum(arrival[i] < arrival[j] for i, j in pairs) / len(pairs)) if pairs else None
+    return (same / total if total else float("nan")), order
+
+
+def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
+    """Render, fit and score one source at one setting."""
+    import cv2
+
+    from inkmotion.geometry.chamfer import chamfer
+    from inkmotion.kinds.read import read_input
+
+    name = source.split("/")[-1].removesuffix(".gml").replace(":", "-")
+    folder = out / f"{name}--{scan.name}"
+    folder.mkdir(parents=True, exist_ok=True)
+    truth = read_input(source).fit_to_canvas(scan.size).strokes  # picture px
+    pic = folder / ("picture.jpg" if scan.jpeg else "picture.png")
+    render_scan(truth, scan, pic)
+    cmd = [str(Path(sys.executable).parent / "inkmotion"), "run", "fit", str(pic), "--out",
+           str(folder / "fit"), "--force", "--no-record"]
+    if steps:
+        cmd += ["--steps", str(steps)]
+    if scan.varying:
+        cmd.append("--varying-width")
+    start = time.perf_counter()
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    row: dict = {"source": source, "scan": scan.name, "wall_s": round(wall, 2)}
+    if done.returncode != 0:
+        row["error"] = (done.stderr.strip().splitlines() or ["?"])[-1]
+        return row
+    report = json.loads((folder / "fit" / "report.json").read_text())
+    ex = report["extraction"]
+    m = ex["canvas_from_picture"]
+    on_canvas = [s[:, :2] * ex["decoded_scale"] * m["scale"] + np.asarray(m["offset"])
+                 for s in truth]
+    motion = _samples(folder / "fit" / "trajectory.csv")
+    mean, worst = chamfer(on_canvas, [p[:, :2] for p in motion])
+    direction, order = direction_and_order(on_canvas, motion)
+    row.update(true_strokes=len(truth), strokes=ex["strokes"], moves=report["moves"],
+               chamfer_mean_px=round(mean, 3), chamfer_max_px=round(worst, 2),
+               direction=round(direction, 3),
+               order=None if order is None else round(order, 3),
+               t_end_ratio_multi=round(report["t_end_ratio_multi"], 3),
+               delta_t_at_clamp=report["delta_t_at_clamp"],
+               extraction_s=ex["seconds"], fit_s=report["fit_s"], job_s=report["wall_s"])
+    if scan.varying:
+        drawn = cv2.imread(str(folder / "fit" / "drawing.png"), cv2.IMREAD_GRAYSCALE)
+        from inkmotion.tracing import read_picture, trace_picture
+
+        ink = trace_picture(read_picture(str(pic)), True).fit_to_canvas(350).picture
+        a, b = (255 - drawn) > 127, ink > 0.5
+        if a.shape == b.shape:
+            row["iou"] = round(float((a & b).sum() / max((a | b).sum(), 1)), 3)
+    return row
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("sources", nargs="+")
+    parser.add_argument("--steps", type=int, default=None)
+    parser.add_argument("--scan", action="append", help="only these settings (names)")
+    parser.add_argument("--varying", action="store_true", help="fit --varying-width too")
+    args = parser.parse_args(argv)
+    scans = [s for s in SCANS if not args.scan or s.name in args.scan]
+    if args.varying:
+        scans = [Scan(**{**asdict(s), "name": s.name + "-vw", "varying": True}) for s in scans]
+    rows = []
+    for source in args.sources:
+        for scan in scans:
+            row = run_one(source, scan, args.out, args.steps)
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+            (args.out / "pictures.json").write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,226 @@
+"""A picture of a line drawing as an ink map: how dark each pixel is against its paper.
+
+Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputError`):
+
+1. **Decode** with Pillow: the pixel count is read from the header first, so a huge
+   image is reduced while it is decoded (JPEG draft mode, else ``Image.reduce``) to at
+   most :data:`WORK_PIXELS`, or refused above :data:`REFUSE_PIXELS`; a truncated file or
+   one that is not an image is refused. Alpha is composited over white paper, palettes and
+   CMYK converted, 16-bit and float greys scaled to [0, 1].
+2. **Polarity**: the paper is what most of the page is, so a page whose median grey is
+   below ½ is light ink on dark paper and is inverted (``invert=True`` forces it).
+3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
+   paper itself, the grey image closed (max then min) over a window wider than any stroke
+   and blurred; the ink is then 1 − grey / paper, in [0, 1].
+4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
+   blank page stays blank), a 3 × 3 median against JPEG noise, small specks removed and
+   pin-holes filled (:mod:`skimage.morphology`).
+
+Refused: a blank page, a page that is mostly ink, and a photo that is not line art (its
+ink too wide for the page, or too much of it).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from inkmotion.errors import InputError
+
+#: file suffixes read as pictures
+SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif", ".pgm", ".ppm")
+#: larger images are reduced to about this many pixels as they are decoded (said in notes)
+WORK_PIXELS = 4_000_000
+#: larger images are refused (a decompression bomb, or a page scanned far too fine)
+REFUSE_PIXELS = 400_000_000
+#: the least darkness, against the paper, that counts as ink
+MIN_CONTRAST = 0.18
+#: a page with more ink than this share is not line art
+MAX_INK_SHARE = 0.35
+#: ink whose median width is more than this share of the page's longer side is not line art
+MAX_WIDTH_SHARE = 0.06
+
+
+@dataclass
+class Picture:
+    """A decoded picture: ``grey`` (H, W) in [0, 1], 1 = paper, after polarity; ``ink``
+    (H, W) darkness against the flattened paper, [0, 1]; ``mask`` (H, W) bool, the ink
+    after clean-up. ``scale`` is the decoded size over the file's (1 unless reduced);
+    ``notes`` say what was done that a user should know (reduced, inverted)."""
+
+    source: str
+    grey: np.ndarray
+    ink: np.ndarray
+    mask: np.ndarray
+    scale: float = 1.0
+    inverted: bool = False
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.mask.shape  # type: ignore[return-value]
+
+
+def is_picture(source: str) -> bool:
+    """True for a path with a picture's suffix (:data:`SUFFIXES`)."""
+    return Path(source).suffix.lower() in SUFFIXES
+
+
+def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
+    """Grey (H, W) float32 in [0, 1] of the picture file ``source``, the decoded size over
+    the file's, and notes (module docstring, step 1)."""
+    from PIL import Image, UnidentifiedImageError
+
+    notes: list[str] = []
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            Image.MAX_IMAGE_PIXELS = None  # our own limits below, from the header
+            with Image.open(source) as img:
+                w, h = img.size
+                if w * h > REFUSE_PIXELS:
+                    raise InputError(
+                        f"{source}: {w} × {h} is {w * h / 1e6:.0f} megapixels, more than the "
+                        f"{REFUSE_PIXELS / 1e6:.0f} this reads; scan or export it smaller.")
+                factor = max(1, math.ceil(math.sqrt(w * h / WORK_PIXELS)))
+                if factor > 1 and img.format == "JPEG":
+                    img.draft("L", (w // factor, h // factor))
+                img.load()
+                img = _flatten(img)
+                if factor > 1:
+                    step = max(1, round(img.size[0] / (w / factor)))
+                    if step > 1:
+                        img = img.reduce(step)
+                    if img.size[0] * img.size[1] > 1.05 * WORK_PIXELS:
+                        img = img.resize((w // factor, h // factor), Image.Resampling.BOX)
+                    notes.append(f"the picture ({w} × {h} px) was reduced to "
+                                 f"{img.size[0]} × {img.size[1]} px to trace it")
+                grey = _grey_array(img)
+                scale = img.size[0] / w
+    except InputError:
+        raise
+    except UnidentifiedImageError:
+        raise InputError(f"{source}: not a picture this can read (PNG, JPEG, BMP, TIFF, "
+                         "WebP); check the file.") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise InputError(f"{source}: the picture cannot be decoded ({_reason(exc)}); it may be "
+                         "truncated or damaged, so export it again.") from None
+    return grey, scale, notes
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).strip().rstrip(".")
+    return text[:80] if text else type(exc).__name__
+
+
+def _flatten(img: object) -> object:
+    """The image in mode 'L', 'I;16'-like 'I' or 'F': alpha composited over white, palettes
+    and colour converted to luminance."""
+    from PIL import Image
+
+    assert isinstance(img, Image.Image)
+    mode = img.mode
+    if mode == "P":
+        img = img.convert("RGBA" if "transparency" in img.info else "RGB")
+        mode = img.mode
+    if mode in ("RGBA", "LA", "RGBa", "La", "PA"):
+        img = img.convert("RGBA")
+        paper = Image.new("RGBA", img.size, (255, 255, 255, 255))
+        img = Image.alpha_composite(paper, img).convert("L")
+    elif mode in ("RGB", "CMYK", "YCbCr", "LAB", "HSV", "RGBX", "1"):
+        img = img.convert("L")
+    return img
+
+
+def _grey_array(img: object) -> np.ndarray:
+    """Float32 (H, W) in [0, 1] of a flattened image (8-bit, 16-bit or float)."""
+    a = np.asarray(img)
+    if a.dtype == np.uint8 or a.dtype == bool:
+        out = a.astype(np.float32) / (1.0 if a.dtype == bool else 255.0)
+    elif a.dtype in (np.uint16, np.int32, np.uint32, np.int16):
+        top = 65535.0 if a.max() > 255 else 255.0
+        out = a.astype(np.float32) / top
+    else:
+        out = a.astype(np.float32)
+        hi = float(np.nanmax(out)) if out.size else 1.0
+        if hi > 1.0:
+            out = out / hi
+    if out.ndim != 2:
+        raise InputError("the picture has an unexpected layout of channels; save it as a "
+                         "grey or colour PNG.")
+    return np.clip(np.nan_to_num(out, nan=1.0), 0.0, 1.0)
+
+
+def read_picture(source: str, invert: bool = False) -> Picture:
+    """The :class:`Picture` of the file ``source`` (module docstring); ``invert`` forces
+    light ink on dark paper, otherwise it is detected."""
+    grey, scale, notes = decode(source)
+    h, w = grey.shape
+    if min(h, w) < 8:
+        raise InputError(f"{source}: {w} × {h} px is too small to hold a drawing.")
+    inverted = invert or float(np.median(grey)) < 0.5
+    if inverted:
+        grey = 1.0 - grey
+        if not invert:
+            notes.append("light ink on dark paper was detected and inverted")
+    ink = ink_map(grey)
+    mask = ink_mask(ink)
+    _check_line_art(source, ink, mask)
+    return Picture(source, grey, ink, mask, scale, inverted, notes)
+
+
+def paper_window(shape: tuple[int, int]) -> int:
+    """Odd window (px) of the paper estimate: wider than any stroke of line art
+    (:data:`MAX_WIDTH_SHARE` of the longer side, at least 15 px)."""
+    k = max(15, int(2 * MAX_WIDTH_SHARE * max(shape)) + 3)
+    return k | 1
+
+
+def ink_map(grey: np.ndarray) -> np.ndarray:
+    """Darkness of each pixel against its paper, [0, 1] (module docstring, step 3)."""
+    import cv2
+
+    k = paper_window(grey.shape)
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
+    paper = cv2.morphologyEx(grey, cv2.MORPH_CLOSE, kernel)  # removes the dark strokes
+    paper = cv2.blur(paper, (k, k))
+    paper = np.maximum(paper, grey)  # the blur may dip below a pixel of paper
+    return np.clip(1.0 - grey / np.maximum(paper, 1e-3), 0.0, 1.0).astype(np.float32)
+
+
+def ink_mask(ink: np.ndarray) -> np.ndarray:
+    """The ink (H, W) bool of a darkness map (module docstring, step 4)."""
+    import cv2
+    from skimage.filters import threshold_otsu
+    from skimage.morphology import remove_small_holes, remove_small_objects
+
+    dark = ink[ink > MIN_CONTRAST / 2]
+    level = max(MIN_CONTRAST, float(threshold_otsu(dark)) if dark.size > 16 else 1.0)
+    mask = cv2.medianBlur((ink > level).astype(np.uint8), 3).astype(bool)
+    speck = max(4, int(round(1e-5 * mask.size)))
+    mask = remove_small_objects(mask, max_size=speck)
+    return remove_small_holes(mask, max_size=speck)
+
+
+def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray) -> None:
+    """Refuse a blank page, a page of mostly ink, and a picture that is not line art."""
+    import cv2
+
+    share = float(mask.mean())
+    if share == 0.0 or mask.sum() < 16:
+        raise InputError(f"{source}: no ink was found on this page (it looks blank); check "
+                         "the file, or pass --invert for light ink on dark paper.")
+    if share > MAX_INK_SHARE:
+        raise InputError(f"{source}: {100 * share:.0f} % of the page is ink, which is not a line "
+                         "drawing; crop it to the drawing, or pass --invert if the paper is "
+                         "the dark part.")
+    dist = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    widest = 2.0 * float(np.percentile(dist[mask], 95))
+    if widest > MAX_WIDTH_SHARE * 2 * max(mask.shape):
+        raise InputError(f"{source}: the dark areas are {widest:.0f} px wide, too wide for "
+                         "line art on a page this size; use a picture of a line drawing "
+                         "(a photo is drawn by the 'abstract' kind instead).")

@@ -1,0 +1,415 @@
+"""Strokes of a line drawing from its ink mask: centrelines, a stroke graph, and strokes
+formed, directed and ordered the way a hand draws them.
+
+1. **Centrelines**: the mask's skeleton (:func:`skimage.morphology.skeletonize`) as a graph
+   of paths between tips and junctions (:class:`skan.Skeleton`); the ink's radius along it
+   is the distance transform (OpenCV's, exact) less half a pixel.
+2. **Graph**: junction pixels joined by a path shorter than the ink is wide are one
+   junction (a crossing skeletonises into two forks a few pixels apart); a branch from a
+   junction to a tip shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur
+   of the ink's outline, not a stroke, and is dropped.
+3. **Strokes**: at every junction the branch ends are paired straightest first, a pair
+   taken while it bends by less than :data:`STRAIGHT` (a stroke goes straight through a
+   crossing), then any ends left are paired while they bend by less than :data:`TURN` (a
+   hand turns at a corner rather than lift the pen); a junction of two ends always joins
+   them. Paired branches chain into strokes; a chain that comes back to its start is a
+   loop. At a junction a chain passes through, the skeleton's wobble is cut out (the
+   points within the junction's radius) and the two sides joined.
+4. **Direction and order**: an open stroke begins at the end a writer begins at, the one
+   further left and up (smaller x + :data:`DOWN_WEIGHT` · y); a loop begins at its top and
+   runs counter-clockwise on the page. Strokes are ordered in lines, top to bottom, each
+   line left to right (by the stroke's left edge).
+5. **Dots**: ink whose skeleton is a point or shorter than its width is a dab: a stroke
+   of two points across the blob.
+
+Coordinates: x, y in the picture's pixels, pixel centres at half-integers (the renderer's
+convention); each stroke (k, 3) with its radius.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: a junction-to-tip branch shorter than this × the junction's radius (+ 1 px) is a spur
+SPUR = 1.6
+#: branch ends at a junction that bend by less than this (degrees) continue each other
+STRAIGHT = 50.0
+#: ends left over at a junction are joined while they bend by less than this (degrees)
+TURN = 120.0
+#: how much lower counts as much as further left when choosing where a stroke begins
+DOWN_WEIGHT = 0.6
+#: window (samples) of the moving average that smooths the skeleton's staircase
+SMOOTH = 5
+
+
+@dataclass
+class StrokeGraph:
+    """What the extraction found, for the report: ``strokes`` (k, 3) each (x, y, radius),
+    in drawing order; counts of junctions, tips, spurs dropped, loops and dots."""
+
+    strokes: list[np.ndarray]
+    junctions: int
+    tips: int
+    spurs: int
+    loops: int
+    dots: int
+
+
+class _Union:
+    """Union-find over node ids (junction pixels that are one junction)."""
+
+    def __init__(self) -> None:
+        self.parent: dict[int, int] = {}
+
+    def find(self, a: int) -> int:
+        self.parent.setdefault(a, a)
+        while self.parent[a] != a:
+            self.parent[a] = self.parent[self.parent[a]]
+            a = self.parent[a]
+        return a
+
+    def join(self, a: int, b: int) -> None:
+        self.parent[self.find(a)] = self.find(b)
+
+
+def radius_map(mask: np.ndarray) -> np.ndarray:
+    """Ink radius at each ink pixel (px): the exact Euclidean distance to the nearest
+    paper pixel's centre less ½ (a stroke n pixels wide has radius n/2 at its axis)."""
+    import cv2
+
+    dist = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return np.maximum(dist - 0.5, 0.5).astype(np.float64)
+
+
+def stroke_graph(mask: np.ndarray) -> StrokeGraph:
+    """The strokes of the ink ``mask`` (H, W) bool (module docstring)."""
+    from skimage.morphology import skeletonize
+
+    radius = radius_map(mask)
+    skeleton = skeletonize(mask)
+    branches, nodes = _branches(skeleton, radius)
+    spurs = _drop_spurs(branches, nodes)
+    chains, loops = _chain(branches, nodes)
+    strokes = [_stroke_points(chain, branches, nodes, radius) for chain in chains]
+    strokes = [s for s in strokes if len(s) >= 2]
+    dots = _dots(mask, skeleton, radius, strokes)
+    strokes = _directed(strokes) + dots
+    junctions = sum(1 for n in nodes.values() if n.degree >= 3)
+    tips = sum(1 for n in nodes.values() if n.degree == 1)
+    return StrokeGraph(_ordered(strokes), junctions, tips, spurs, loops, len(dots))
+
+
+@dataclass
+class _Branch:
+    """A skeleton path: points (k, 2) as (x, y), its end nodes, and whether it is kept."""
+
+    points: np.ndarray
+    ends: tuple[int, int]
+    kept: bool = True
+
+    @property
+    def length(self) -> float:
+        return float(np.hypot(*np.diff(self.points, axis=0).T).sum()) if len(self.points) > 1 \
+            else 0.0
+
+
+@dataclass
+class _Node:
+    """A junction (merged pixels), a tip, or a pass-through: centre (x, y), radius, and
+    the branch ends (branch index, 0 or 1 for its first or last point) that meet here."""
+
+    centre: np.ndarray
+    radius: float
+    ends: list[tuple[int, int]]
+
+    @property
+    def degree(self) -> int:
+        return len(self.ends)
+
+
+def _branches(skeleton: np.ndarray, radius: np.ndarray
+              ) -> tuple[list[_Branch], dict[int, _Node]]:
+    """The skeleton's paths (skan) and their end nodes, junction pixels merged (step 2)."""
+    if skeleton.sum() < 2:
+        return [], {}
+    from skan import Skeleton
+
+    sk = Skeleton(skeleton)
+    degrees = sk.degrees
+    raw = []
+    for i in range(sk.n_paths):
+        ids = sk.path(i)
+        rc = sk.coordinates[ids]
+        raw.append((rc[:, ::-1].astype(np.float64) + 0.5, int(ids[0]), int(ids[-1])))
+    union = _Union()
+    absorbed = set()
+    for i, (pts, a, b) in enumerate(raw):
+        if degrees[a] >= 3 and degrees[b] >= 3 and a != b:
+            ra = radius[int(pts[0, 1]), int(pts[0, 0])]
+            rb = radius[int(pts[-1, 1]), int(pts[-1, 0])]
+            length = float(np.hypot(*np.diff(pts, axis=0).T).sum())
+            if length <= max(ra, rb) + 1.5:
+                union.join(a, b)
+                absorbed.add(i)
+    members: dict[int, list[np.ndarray]] = {}
+    for i, (pts, a, b) in enumerate(raw):
+        for node, p in ((a, pts[0]), (b, pts[-1])):
+            members.setdefault(union.find(node), []).append(p)
+    nodes: dict[int, _Node] = {}
+    for key, pts in members.items():
+        centre = np.mean(pts, axis=0)
+        r = max(radius[int(p[1]), int(p[0])] for p in pts)
+        nodes[key] = _Node(centre, float(r), [])
+    branches = []
+    for i, (pts, a, b) in enumerate(raw):
+        if i in absorbed:
+            continue
+        ends = (union.find(a), union.find(b))
+        branches.append(_Branch(pts, ends))
+        k = len(branches) - 1
+        nodes[ends[0]].ends.append((k, 0))
+        nodes[ends[1]].ends.append((k, 1))
+    return branches, {k: n for k, n in nodes.items() if n.ends}
+
+
+def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
+    """Drop junction-to-tip branches shorter than the junction's ink (step 2); how many."""
+    dropped = 0
+    for _ in range(3):  # a spur's removal may leave another behind it
+        again = False
+        for k, br in enumerate(branches):
+            if not br.kept:
+                continue
+            a, b = (nodes[e] for e in br.ends)
+            for tip, fork in ((a, b), (b, a)):
+                if tip.degree == 1 and fork.degree >= 3 and \
+                        br.length < SPUR * fork.radius + 1.0:
+                    br.kept = False
+                    tip.ends.remove((k, 0 if tip is a else 1))
+                    fork.ends.remove((k, 1 if tip is a else 0))
+                    dropped += 1
+                    again = True
+                    break
+        if not again:
+            break
+    return dropped
+
+
+def _outward(br: _Branch, end: int, node: _Node) -> np.ndarray:
+    """Unit direction in which branch ``br`` leaves ``node`` at its end ``end``: from
+    its point at the junction's radius to the one a few radii further (skipping the
+    skeleton's wobble inside the junction)."""
+    pts = br.points if end == 0 else br.points[::-1]
+    d = np.hypot(*(pts - node.centre).T)
+    near = int(np.argmax(d >= node.radius)) if np.any(d >= node.radius) else 0
+    reach = node.radius + max(4.0, 2.0 * node.radius)
+    far_idx = np.flatnonzero(d >= reach)
+    far = int(far_idx[0]) if far_idx.size else len(pts) - 1
+    if far <= near:
+        near, far = 0, len(pts) - 1
+    v = pts[far] - pts[near]
+    n = float(np.hypot(*v))
+    return v / n if n > 0 else np.zeros(2)
+
+
+def _bend(u: np.ndarray, v: np.ndarray) -> float:
+    """Degrees by which a path entering along −u and leaving along v turns (0: straight)."""
+    c = float(np.clip(-(u @ v), -1.0, 1.0))
+    return math.degrees(math.acos(c))
+
+
+def _pairs(nodes: dict[int, _Node], branches: list[_Branch]
+           ) -> dict[tuple[int, int], tuple[int, int]]:
+    """Branch end -> the branch end it continues into, at every node (step 3)."""
+    pair: dict[tuple[int, int], tuple[int, int]] = {}
+    for node in nodes.values():
+        ends = list(node.ends)
+        if len(ends) == 2:
+            pair[ends[0]], pair[ends[1]] = ends[1], ends[0]
+            continue
+        if len(ends) < 2:
+            continue
+        dirs = {e: _outward(branches[e[0]], e[1], node) for e in ends}
+        options = sorted((_bend(dirs[a], dirs[b]), i, j)
+                         for i, a in enumerate(ends) for j, b in enumerate(ends) if i < j)
+        free = set(ends)
+        for limit in (STRAIGHT, TURN):
+            for bend, i, j in options:
+                a, b = ends[i], ends[j]
+                if bend < limit and a in free and b in free:
+                    pair[a], pair[b] = b, a
+                    free -= {a, b}
+    return pair
+
+
+def _chain(branches: list[_Branch], nodes: dict[int, _Node]
+           ) -> tuple[list[list[tuple[int, int]]], int]:
+    """Strokes as lists of (branch, direction 0 = as stored, 1 = reversed); loop count."""
+    pair = _pairs(nodes, branches)
+    seen: set[int] = set()
+    chains: list[list[tuple[int, int]]] = []
+
+    def walk(k: int, enter: int) -> list[tuple[int, int]]:
+        out = []
+        while k not in seen:
+            seen.add(k)
+            out.append((k, enter))
+            nxt = pair.get((k, 1 - enter))
+            if nxt is None:
+                break
+            k, enter = nxt
+        return out
+
+    starts = [(k, e) for k, br in enumerate(branches) if br.kept for e in (0, 1)
+              if (k, e) not in pair]
+    for k, e in starts:
+        if k not in seen:
+            chains.append(walk(k, e))
+    loops = 0
+    for k, br in enumerate(branches):
+        if br.kept and k not in seen:
+            chains.append(walk(k, 0))
+            loops += 1
+    return chains, loops
+
+
+def _stroke_points(chain: list[tuple[int, int]], branches: list[_Branch],
+                   nodes: dict[int, _Node], radius: np.ndarray) -> np.ndarray:
+    """A chain's points (k, 3): x, y, radius; the junctions it passes through bridged
+    (module docstring, step 3), the staircase smoothed."""
+    parts = []
+    for i, (k, enter) in enumerate(chain):
+        br = branches[k]
+        pts = br.points if enter == 0 else br.points[::-1]
+        start_node, end_node = (nodes[n] for n in (br.ends if enter == 0 else br.ends[::-1]))
+        keep = np.ones(len(pts), bool)
+        if i > 0:  # entered through a junction: cut its wobble
+            keep &= np.hypot(*(pts - start_node.centre).T) >= start_node.radius
+        if i < len(chain) - 1:
+            keep &= np.hypot(*(pts - end_node.centre).T) >= end_node.radius
+        if keep.sum() < 2:
+            keep[:] = False
+            keep[[0, -1]] = True
+        parts.append(pts[keep])
+    pts = np.vstack(parts)
+    closed = len(chain) > 0 and _closes(chain, branches)
+    pts = _smooth(pts, closed)
+    rows = np.clip(pts[:, 1].astype(int), 0, radius.shape[0] - 1)
+    cols = np.clip(pts[:, 0].astype(int), 0, radius.shape[1] - 1)
+    r = _smooth(radius[rows, cols][:, None], closed)[:, 0]
+    return _simplify(np.column_stack((pts, r)), closed)
+
+
+def _closes(chain: list[tuple[int, int]], branches: list[_Branch]) -> bool:
+    k0, e0 = chain[0]
+    k1, e1 = chain[-1]
+    first = branches[k0].ends[e0]
+    last = branches[k1].ends[1 - e1]
+    return first == last
+
+
+def _smooth(pts: np.ndarray, closed: bool) -> np.ndarray:
+    """Moving average over :data:`SMOOTH` samples; an open stroke keeps its two ends."""
+    n = len(pts)
+    if n < 3:
+        return pts
+    w = min(SMOOTH, n if closed else (n - 1) | 1)
+    if w < 3:
+        return pts
+    h = w // 2
+    if closed and np.allclose(pts[0], pts[-1]):
+        body = pts[:-1]
+        ext = np.vstack((body[-h:], body, body[:h]))
+        out = np.stack([np.convolve(ext[:, c], np.ones(w) / w, mode="valid")
+                        for c in range(pts.shape[1])], axis=1)
+        return np.vstack((out, out[:1]))
+    ext = np.vstack((np.repeat(pts[:1], h, 0), pts, np.repeat(pts[-1:], h, 0)))
+    out = np.stack([np.convolve(ext[:, c], np.ones(w) / w, mode="valid")
+                    for c in range(pts.shape[1])], axis=1)
+    out[0], out[-1] = pts[0], pts[-1]
+    return out
+
+
+def _simplify(pts: np.ndarray, closed: bool, tol: float = 0.2) -> np.ndarray:
+    """Drop points within ``tol`` px of the line through their neighbours (Douglas–Peucker,
+    :meth:`shapely.LineString.simplify`), radii kept with their points."""
+    from shapely import LineString
+
+    if len(pts) < 3:
+        return pts
+    line = LineString(pts[:, :2]).simplify(tol, preserve_topology=False)
+    kept = np.asarray(line.coords)
+    # map the kept coordinates back to their rows (simplify returns a subset)
+    idx = []
+    j = 0
+    for p in kept:
+        while j < len(pts) and not np.allclose(pts[j, :2], p):
+            j += 1
+        idx.append(min(j, len(pts) - 1))
+    return pts[np.unique(idx)]
+
+
+def _dots(mask: np.ndarray, skeleton: np.ndarray, radius: np.ndarray,
+          strokes: list[np.ndarray]) -> list[np.ndarray]:
+    """Dabs for ink blobs that no stroke passes through (step 5)."""
+    import cv2
+
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
+    covered = np.zeros(count, bool)
+    for s in strokes:
+        rows = np.clip(s[:, 1].astype(int), 0, mask.shape[0] - 1)
+        cols = np.clip(s[:, 0].astype(int), 0, mask.shape[1] - 1)
+        covered[labels[rows, cols]] = True
+    dots = []
+    for label in range(1, count):
+        if covered[label]:
+            continue
+        cx, cy = centroids[label]
+        r = float(radius[labels == label].max())
+        w = stats[label, cv2.CC_STAT_WIDTH] / 2.0
+        half = max(0.5, w - r)
+        dots.append(np.array([[cx + 0.5 - half, cy + 0.5, r], [cx + 0.5 + half, cy + 0.5, r]]))
+    return dots
+
+
+def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
+    """Each stroke begun where a writer begins it (module docstring, step 4)."""
+    out = []
+    for s in strokes:
+        closed = len(s) > 3 and np.hypot(*(s[0, :2] - s[-1, :2])) < 1.0
+        if closed:
+            body = s[:-1]
+            top = int(np.argmin(body[:, 1] + 1e-3 * body[:, 0]))
+            body = np.roll(body, -top, axis=0)
+            x, y = body[:, 0], body[:, 1]
+            area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+            if area > 0:  # clockwise on the page (y down): turn it round
+                body = np.vstack((body[:1], body[:0:-1]))
+            s = np.vstack((body, body[:1]))
+        elif s[-1, 0] + DOWN_WEIGHT * s[-1, 1] < s[0, 0] + DOWN_WEIGHT * s[0, 1]:
+            s = s[::-1].copy()
+        out.append(s)
+    return out
+
+
+def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
+    """Strokes in lines top to bottom, each line left to right (module docstring, step 4):
+    a stroke joins the first line whose vertical extent holds its middle."""
+    boxes = [(s[:, 0].min(), s[:, 1].min(), s[:, 0].max(), s[:, 1].max()) for s in strokes]
+    lines: list[list[int]] = []
+    extents: list[list[float]] = []
+    for i in sorted(range(len(strokes)), key=lambda i: (boxes[i][3] - boxes[i][1]),
+                    reverse=True):
+        mid = 0.5 * (boxes[i][1] + boxes[i][3])
+        for line, ext in zip(lines, extents, strict=True):
+            if ext[0] <= mid <= ext[1]:
+                line.append(i)
+                break
+        else:
+            lines.append([i])
+            extents.append([boxes[i][1], boxes[i][3]])
+    order = sorted(range(len(lines)), key=lambda k: extents[k][0])
+    return [strokes[i] for k in order for i in sorted(lines[k], key=lambda i: boxes[i][0])]
