@@ -130,7 +130,7 @@ def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
     from inkmotion.geometry.chamfer import chamfer
     from inkmotion.kinds.read import read_input
 
-    name = source.split("/")[-1].removesuffix(".gml").replace(":", "-")
+    name = Path(source.split(":", 1)[-1]).stem if not source.startswith("text:") else source.replace(":", "-")
     folder = out / f"{name}--{scan.name}"
     folder.mkdir(parents=True, exist_ok=True)
     truth = read_input(source).fit_to_canvas(scan.size).strokes  # picture px

@@ -41,6 +41,10 @@ STRAIGHT = 50.0
 TURN = 120.0
 #: how much lower counts as much as further left when choosing where a stroke begins
 DOWN_WEIGHT = 0.6
+#: arms meeting at an inner angle below this (degrees) make a cusp, drawn out and back
+CUSP = 60.0
+#: the point of a cusp reaches at most this many ink radii past the fork
+CUSP_REACH = 14.0
 #: window (samples) of the moving average that smooths the skeleton's staircase
 SMOOTH = 5
 
@@ -186,7 +190,7 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
             a, b = (nodes[e] for e in br.ends)
             for tip, fork in ((a, b), (b, a)):
                 if tip.degree == 1 and fork.degree >= 3 and \
-                        br.length < SPUR * fork.radius + 1.0:
+                        br.length < _spur_limit(branches, fork, (k, 1 if tip is a else 0)):
                     br.kept = False
                     tip.ends.remove((k, 0 if tip is a else 1))
                     fork.ends.remove((k, 1 if tip is a else 0))
@@ -195,7 +199,50 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
                     break
         if not again:
             break
+    _cusps(branches, nodes)
     return dropped
+
+
+def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
+    """A tip branch at a fork whose two other arms meet at an inner angle under
+    :data:`CUSP` (and no longer than :data:`CUSP_REACH` radii) is the point of a cusp: a
+    hand goes out to it and back. It becomes an out-and-back branch with both ends at the
+    fork, so the two arms chain through it."""
+    for k, br in enumerate(branches):
+        if not br.kept:
+            continue
+        a, b = (nodes[e] for e in br.ends)
+        for tip, fork, fork_end in ((a, b, 1), (b, a, 0)):
+            if not (tip.degree == 1 and fork.degree == 3):
+                continue
+            if br.length > CUSP_REACH * fork.radius + 2.0:
+                continue
+            others = [e for e in fork.ends if e != (k, fork_end)]
+            u, v = (_outward(branches[i], j, fork) for i, j in others)
+            if 180.0 - _bend(u, v) >= CUSP:
+                continue
+            out = br.points if fork_end == 0 else br.points[::-1]
+            br.points = np.vstack((out, out[-2::-1]))
+            key = br.ends[fork_end]
+            br.ends = (key, key)
+            tip.ends.clear()
+            fork.ends.remove((k, fork_end))
+            fork.ends.extend([(k, 0), (k, 1)])
+            break
+
+
+def _spur_limit(branches: list[_Branch], fork: _Node, end: tuple[int, int]) -> float:
+    """Longest spur at ``fork`` for the branch end ``end``: :data:`SPUR` × its radius (+1
+    px), or at a cusp, where the two other branches meet at an inner angle α, the length
+    the skeleton grows out of a corner that sharp: r / sin(α/2) (+1 px)."""
+    limit = SPUR * fork.radius + 1.0
+    others = [e for e in fork.ends if e != end]
+    if len(others) == 2:
+        u, v = (_outward(branches[i], j, fork) for i, j in others)
+        alpha = math.radians(180.0 - _bend(u, v))  # inner angle between the two arms
+        if alpha < math.radians(90.0):
+            limit = max(limit, fork.radius / math.sin(max(alpha, 0.17) / 2) + 1.0)
+    return limit
 
 
 def _outward(br: _Branch, end: int, node: _Node) -> np.ndarray:
@@ -396,20 +443,15 @@ def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
-    """Strokes in lines top to bottom, each line left to right (module docstring, step 4):
-    a stroke joins the first line whose vertical extent holds its middle."""
+    """Strokes in lines top to bottom, each line left to right by the stroke's left edge
+    (module docstring, step 4): a line is a run of strokes whose vertical extents overlap
+    (a tag, however it sprawls, is one line; lines of text are apart)."""
     boxes = [(s[:, 0].min(), s[:, 1].min(), s[:, 0].max(), s[:, 1].max()) for s in strokes]
     lines: list[list[int]] = []
-    extents: list[list[float]] = []
-    for i in sorted(range(len(strokes)), key=lambda i: (boxes[i][3] - boxes[i][1]),
-                    reverse=True):
-        mid = 0.5 * (boxes[i][1] + boxes[i][3])
-        for line, ext in zip(lines, extents, strict=True):
-            if ext[0] <= mid <= ext[1]:
-                line.append(i)
-                break
-        else:
-            lines.append([i])
-            extents.append([boxes[i][1], boxes[i][3]])
-    order = sorted(range(len(lines)), key=lambda k: extents[k][0])
-    return [strokes[i] for k in order for i in sorted(lines[k], key=lambda i: boxes[i][0])]
+    bottom = -math.inf
+    for i in sorted(range(len(strokes)), key=lambda i: boxes[i][1]):
+        if boxes[i][1] > bottom:
+            lines.append([])
+        lines[-1].append(i)
+        bottom = max(bottom, boxes[i][3])
+    return [strokes[i] for line in lines for i in sorted(line, key=lambda i: boxes[i][0])]
