@@ -8,8 +8,11 @@ process, as a user would) and prints a table; ``OUT/pictures.json`` holds every 
 Scores (fitted motion against the true trace, both on the fit's canvas):
 
 - Chamfer mean / max (px) (:mod:`inkmotion.geometry.chamfer`);
-- direction: the share of the true ink length (1-px samples) whose nearest fitted sample
-  travels the same way (positive dot product of the two tangents);
+- direction: the share of the true ink length (1-px samples) that the motion passes in
+  the recorded direction: a fitted sample within 1 px of the nearest one and running
+  along the stroke (|cos| > 0.7), or the nearest one, whose tangent has a positive dot
+  product with the stroke's (a place the motion passes twice, out to a cusp's point and
+  back, counts the pass that agrees);
 - order: the share of pairs of true strokes that the motion reaches in their recorded
   order (each stroke's median arrival time; 'n/a' for one stroke);
 - plan size m, T_end ratio, Δt at a bound, extraction seconds (in the fit process, so the
@@ -112,9 +115,17 @@ def direction_and_order(truth: list[np.ndarray], motion: list[np.ndarray]
         if len(d) < 2:
             continue
         tang = np.gradient(d, axis=0)
-        _, idx = tree.query(d)
+        dist, near = tree.query(d, k=min(12, len(pts)))
+        dist, near = dist.reshape(len(d), -1), near.reshape(len(d), -1)
+        cos = np.einsum("ij,ikj->ik", tang, tangent[near]) / np.maximum(
+            np.hypot(*tang.T)[:, None] * np.linalg.norm(tangent[near], axis=2), 1e-12)
+        # a pass through here: within 1 px of the nearest sample and along the stroke
+        passes = (dist <= dist[:, :1] + 1.0) & (np.abs(cos) > 0.7)
+        passes[:, 0] = True  # the nearest sample always counts
+        cos = np.where(passes, cos, -2.0)
+        agree = cos.max(axis=1) > 0
+        idx = near[np.arange(len(d)), np.argmax(cos, axis=1)]
         seg = np.hypot(*tang.T)
-        agree = np.einsum("ij,ij->i", tang, tangent[idx]) > 0
         same += float(seg[agree].sum())
         total += float(seg.sum())
         arrival.append(float(np.median(pts[idx, 2])))
@@ -130,7 +141,8 @@ def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
     from inkmotion.geometry.chamfer import chamfer
     from inkmotion.kinds.read import read_input
 
-    name = Path(source.split(":", 1)[-1]).stem if not source.startswith("text:") else source.replace(":", "-")
+    name = (source.replace(":", "-") if source.startswith("text:")
+            else Path(source.split(":", 1)[-1]).stem)
     folder = out / f"{name}--{scan.name}"
     folder.mkdir(parents=True, exist_ok=True)
     truth = read_input(source).fit_to_canvas(scan.size).strokes  # picture px

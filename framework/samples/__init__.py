@@ -56,6 +56,9 @@ SAMPLES: tuple[Sample, ...] = (
            OWN_LICENCE),
     Sample("spiral", "spiral.svg", "drawing (SVG)", ("fit", "benchmark"),
            "A spiral, a wave and a loop (3 paths).", OWN_LICENCE),
+    Sample("brush-scan", "brush-scan.png", "picture (PNG)", ("fit", "benchmark", "trace"),
+           "The word 'inkmotion' brushed in script on lit paper, 900 px: line art "
+           "to trace.", OWN_LICENCE),
 )
 
 

@@ -1,4 +1,5 @@
-"""Draw the two samples made for the project: ``shapes.png`` and ``spiral.svg``.
+"""Draw the samples made for the project: ``shapes.png``, ``spiral.svg`` and
+``brush-scan.png``.
 
 They were generated once by this module and ship as files; ``python -m
 inkmotion.samples.generate DIR`` draws them again into DIR (``tests/test_samples.py``
@@ -10,6 +11,10 @@ no network.
   left), photo-like enough for the ``abstract`` kind's saliency and CLIP losses.
 - ``spiral.svg``: an Archimedean spiral r = b·θ drawn as cubic Béziers (Hermite
   segments, a quarter turn each), a wave and a loop: three strokes for the ``fit`` kind.
+- ``brush-scan.png``: the word "inkmotion" in the Hershey script font written with a
+  round brush that is wider on down-strokes (3.5–9 px), on cream paper lit from the
+  left, with grain and a soft focus: a picture of line art, as a scan or a phone photo
+  gives it, for fits from pictures and ``inkmotion trace``.
 """
 
 from __future__ import annotations
@@ -151,17 +156,49 @@ def _spiral_path(centre: tuple[float, float], turns: float, b: float) -> str:
     return " ".join(parts)
 
 
+#: the brush scan's word, longer side (px) and seed of its paper grain
+SCAN_WORD, SCAN_SIZE, SCAN_SEED = "inkmotion", 900, 7
+
+
+def brush_scan() -> np.ndarray:
+    """``brush-scan.png`` (module docstring) as an (H, W) uint8 grey image."""
+    import cv2
+
+    from inkmotion.geometry.chamfer import densify
+    from inkmotion.inputs.hershey import render_text
+
+    strokes = render_text(SCAN_WORD).fit_to_canvas(SCAN_SIZE).strokes
+    w = int(max(s[:, 0].max() for s in strokes) + 0.08 * SCAN_SIZE)
+    h = int(max(s[:, 1].max() for s in strokes) + 0.08 * SCAN_SIZE)
+    ink = np.zeros((h, w), np.float32)
+    for s in strokes:
+        pts = densify(s, 0.5)
+        step = np.gradient(pts, axis=0)
+        down = np.clip(step[:, 1] / np.maximum(np.hypot(*step.T), 1e-9), 0, 1)
+        for (x, y), d in zip(pts, down, strict=True):
+            r = 1.75 + 2.75 * d  # 3.5 px wide going up or across, 9 px going down
+            cv2.circle(ink, (round(16 * (x - 0.5)), round(16 * (y - 0.5))), round(16 * r),
+                       1.0, -1, cv2.LINE_AA, 4)
+    ink = cv2.GaussianBlur(ink, (0, 0), 0.9)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    paper = 0.93 - 0.16 * (x / w) - 0.04 * (y / h)  # cream, lit from the left
+    grain = np.random.default_rng(SCAN_SEED).normal(0.0, 0.025, (h, w)).astype(np.float32)
+    grey = paper * (1.0 - 0.82 * ink) + grain
+    return np.clip(255.0 * grey, 0, 255).round().astype(np.uint8)
+
+
 def write_samples(folder: Path) -> list[Path]:
-    """Write shapes.png and spiral.svg into ``folder``; returns their paths."""
+    """Write shapes.png, spiral.svg and brush-scan.png into ``folder``; their paths."""
     import cv2
 
     folder.mkdir(parents=True, exist_ok=True)
-    png, svg = folder / "shapes.png", folder / "spiral.svg"
+    png, svg, scan = folder / "shapes.png", folder / "spiral.svg", folder / "brush-scan.png"
     rgb = still_life()
     cv2.imwrite(str(png), np.ascontiguousarray(rgb[..., ::-1]),
                 [cv2.IMWRITE_PNG_COMPRESSION, 9])
     svg.write_text(spiral_svg())
-    return [png, svg]
+    cv2.imwrite(str(scan), brush_scan(), [cv2.IMWRITE_PNG_COMPRESSION, 9])
+    return [png, svg, scan]
 
 
 if __name__ == "__main__":  # pragma: no cover - python -m inkmotion.samples.generate DIR

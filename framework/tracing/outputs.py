@@ -47,7 +47,7 @@ def strokes_svg(traces: Traces, width: int, height: int) -> str:
              f'viewBox="0 0 {width} {height}">',
              f"<title>{escape(Path(traces.source).name)}: {n} strokes in drawing order</title>"]
     for i, (s, rgb) in enumerate(zip(traces.strokes, stroke_colours(n), strict=True)):
-        colour = "#%02x%02x%02x" % rgb
+        colour = "#{:02x}{:02x}{:02x}".format(*rgb)
         d = "M " + " L ".join(f"{x:.2f},{y:.2f}" for x, y in s[:, :2])
         parts.append(f'<path id="stroke-{i + 1}" d="{d}" fill="none" stroke="{colour}" '
                      f'stroke-width="{size / 4:.2f}" stroke-linecap="round" '

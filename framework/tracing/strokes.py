@@ -8,6 +8,8 @@ formed, directed and ordered the way a hand draws them.
    junction (a crossing skeletonises into two forks a few pixels apart); a branch from a
    junction to a tip shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur
    of the ink's outline, not a stroke, and is dropped.
+   Where a branch from a tip meets a fork whose other two arms close in at an inner
+   angle under :data:`CUSP`, it is the point of a cusp, drawn out and back.
 3. **Strokes**: at every junction the branch ends are paired straightest first, a pair
    taken while it bends by less than :data:`STRAIGHT` (a stroke goes straight through a
    crossing), then any ends left are paired while they bend by less than :data:`TURN` (a
@@ -15,10 +17,11 @@ formed, directed and ordered the way a hand draws them.
    them. Paired branches chain into strokes; a chain that comes back to its start is a
    loop. At a junction a chain passes through, the skeleton's wobble is cut out (the
    points within the junction's radius) and the two sides joined.
-4. **Direction and order**: an open stroke begins at the end a writer begins at, the one
-   further left and up (smaller x + :data:`DOWN_WEIGHT` · y); a loop begins at its top and
-   runs counter-clockwise on the page. Strokes are ordered in lines, top to bottom, each
-   line left to right (by the stroke's left edge).
+4. **Direction and order**: an open stroke begins at the end a writer begins at: the top
+   one (strokes are pulled down) unless the stroke is nearly level, then the left one
+   (smaller :data:`ACROSS_WEIGHT` · x + y); a loop begins at its top and runs
+   counter-clockwise on the page, as the Latin script's o. Strokes are ordered in lines,
+   top to bottom, each line left to right (by the stroke's left edge).
 5. **Dots**: ink whose skeleton is a point or shorter than its width is a dab: a stroke
    of two points across the blob.
 
@@ -39,8 +42,10 @@ SPUR = 1.6
 STRAIGHT = 50.0
 #: ends left over at a junction are joined while they bend by less than this (degrees)
 TURN = 120.0
-#: how much lower counts as much as further left when choosing where a stroke begins
-DOWN_WEIGHT = 0.6
+#: how much further left counts as much as higher up when choosing where a stroke begins:
+#: a stroke starts at its top end (strokes are pulled down) unless it rises by less than
+#: this share of its width (then at its left end)
+ACROSS_WEIGHT = 0.4
 #: arms meeting at an inner angle below this (degrees) make a cusp, drawn out and back
 CUSP = 60.0
 #: the point of a cusp reaches at most this many ink radii past the fork
@@ -159,7 +164,7 @@ def _branches(skeleton: np.ndarray, radius: np.ndarray
                 union.join(a, b)
                 absorbed.add(i)
     members: dict[int, list[np.ndarray]] = {}
-    for i, (pts, a, b) in enumerate(raw):
+    for pts, a, b in raw:
         for node, p in ((a, pts[0]), (b, pts[-1])):
             members.setdefault(union.find(node), []).append(p)
     nodes: dict[int, _Node] = {}
@@ -180,7 +185,8 @@ def _branches(skeleton: np.ndarray, radius: np.ndarray
 
 
 def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
-    """Drop junction-to-tip branches shorter than the junction's ink (step 2); how many."""
+    """Drop junction-to-tip branches shorter than the junction's ink (step 2), then set
+    the points of cusps apart (:func:`_cusps`); how many were dropped."""
     dropped = 0
     for _ in range(3):  # a spur's removal may leave another behind it
         again = False
@@ -190,7 +196,7 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
             a, b = (nodes[e] for e in br.ends)
             for tip, fork in ((a, b), (b, a)):
                 if tip.degree == 1 and fork.degree >= 3 and \
-                        br.length < _spur_limit(branches, fork, (k, 1 if tip is a else 0)):
+                        br.length < SPUR * fork.radius + 1.0:
                     br.kept = False
                     tip.ends.remove((k, 0 if tip is a else 1))
                     fork.ends.remove((k, 1 if tip is a else 0))
@@ -229,20 +235,6 @@ def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
             fork.ends.remove((k, fork_end))
             fork.ends.extend([(k, 0), (k, 1)])
             break
-
-
-def _spur_limit(branches: list[_Branch], fork: _Node, end: tuple[int, int]) -> float:
-    """Longest spur at ``fork`` for the branch end ``end``: :data:`SPUR` × its radius (+1
-    px), or at a cusp, where the two other branches meet at an inner angle α, the length
-    the skeleton grows out of a corner that sharp: r / sin(α/2) (+1 px)."""
-    limit = SPUR * fork.radius + 1.0
-    others = [e for e in fork.ends if e != end]
-    if len(others) == 2:
-        u, v = (_outward(branches[i], j, fork) for i, j in others)
-        alpha = math.radians(180.0 - _bend(u, v))  # inner angle between the two arms
-        if alpha < math.radians(90.0):
-            limit = max(limit, fork.radius / math.sin(max(alpha, 0.17) / 2) + 1.0)
-    return limit
 
 
 def _outward(br: _Branch, end: int, node: _Node) -> np.ndarray:
@@ -436,7 +428,7 @@ def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
             if area > 0:  # clockwise on the page (y down): turn it round
                 body = np.vstack((body[:1], body[:0:-1]))
             s = np.vstack((body, body[:1]))
-        elif s[-1, 0] + DOWN_WEIGHT * s[-1, 1] < s[0, 0] + DOWN_WEIGHT * s[0, 1]:
+        elif ACROSS_WEIGHT * s[-1, 0] + s[-1, 1] < ACROSS_WEIGHT * s[0, 0] + s[0, 1]:
             s = s[::-1].copy()
         out.append(s)
     return out
