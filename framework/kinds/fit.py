@@ -198,7 +198,7 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
             report["warnings"] = [*notes, *report.get("warnings", [])]
         return report
 
-    return staged_problem(job, plans, objective, p.optimiser_settings(), strokes,
+    return staged_problem(job, plans, objective, _optimiser_settings(p, traces), strokes,
                           p.refine_settings()), finish
 
 
@@ -222,6 +222,22 @@ def _read(job: Job, source: str) -> Any:
             time.perf_counter() - start, 4)
         return traces
     return read_input(source, reader=p.reader.name if p.reader else None)
+
+
+#: learning rate of a 2.5D plan's radius, px (the generation kinds' default)
+LR_RADIUS = 0.1
+
+
+def _optimiser_settings(p: FitParams, traces: Any) -> Any:
+    """Adam's settings; for traces with a radius (``--varying-width``) the radius is
+    learnt too, within half the thinnest to 1.5 × the widest of the input's radii."""
+    if not any(s.shape[1] == 3 for s in traces.strokes):
+        return p.optimiser_settings()
+    import numpy as np
+
+    radii = np.concatenate([s[:, 2] for s in traces.strokes if s.shape[1] == 3])
+    return p.optimiser_settings(lr_radius=LR_RADIUS, radius_range=(
+        max(0.25, 0.5 * float(radii.min())), max(1.0, 1.5 * float(radii.max()))))
 
 
 def _pen_width(traces: Any, p: FitParams) -> float:
