@@ -16,8 +16,8 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    blank page stays blank), a 3 × 3 median against JPEG noise, small specks removed and
    pin-holes filled (:mod:`skimage.morphology`).
 
-Refused: a blank page, a page that is mostly ink, and a photo that is not line art (its
-ink too wide for the page, or too much of it).
+Refused: a blank page, a page that is mostly ink, and a photo that is not line art (more
+half-tones than ink, or its ink too wide for the page).
 """
 
 from __future__ import annotations
@@ -41,8 +41,9 @@ REFUSE_PIXELS = 400_000_000
 MIN_CONTRAST = 0.18
 #: a page with more ink than this share is not line art
 MAX_INK_SHARE = 0.35
-#: ink whose median width is more than this share of the page's longer side is not line art
-MAX_WIDTH_SHARE = 0.06
+#: ink whose widest strokes (95th percentile) are more than this share of the page's
+#: longer side is not line art
+MAX_WIDTH_SHARE = 0.05
 
 
 @dataclass
@@ -174,9 +175,10 @@ def read_picture(source: str, invert: bool = False) -> Picture:
 
 
 def paper_window(shape: tuple[int, int]) -> int:
-    """Odd window (px) of the paper estimate: wider than any stroke of line art
-    (:data:`MAX_WIDTH_SHARE` of the longer side, at least 15 px)."""
-    k = max(15, int(2 * MAX_WIDTH_SHARE * max(shape)) + 3)
+    """Odd window (px) of the paper estimate: well over twice as wide as any stroke of
+    line art (:data:`MAX_WIDTH_SHARE` of the longer side; at least 15 px), so the closing
+    removes every stroke, yet far narrower than the page's changes of light."""
+    k = max(15, int(2.4 * MAX_WIDTH_SHARE * max(shape)) + 3)
     return k | 1
 
 
@@ -199,7 +201,11 @@ def ink_mask(ink: np.ndarray) -> np.ndarray:
     from skimage.morphology import remove_small_holes, remove_small_objects
 
     dark = ink[ink > MIN_CONTRAST / 2]
-    level = max(MIN_CONTRAST, float(threshold_otsu(dark)) if dark.size > 16 else 1.0)
+    if dark.size <= 16:
+        return np.zeros(ink.shape, bool)
+    # Otsu between faint paper and ink, never above half the darkest ink (all ink alike)
+    level = max(MIN_CONTRAST, min(float(threshold_otsu(dark)),
+                                  0.5 * float(np.percentile(dark, 99))))
     mask = cv2.medianBlur((ink > level).astype(np.uint8), 3).astype(bool)
     speck = max(4, int(round(1e-5 * mask.size)))
     mask = remove_small_objects(mask, max_size=speck)
@@ -218,9 +224,14 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray) -> None:
         raise InputError(f"{source}: {100 * share:.0f} % of the page is ink, which is not a line "
                          "drawing; crop it to the drawing, or pass --invert if the paper is "
                          "the dark part.")
+    mid = float(((ink > MIN_CONTRAST) & ~mask).mean())  # tones between paper and ink
+    if mid > max(0.05, 2.0 * share):
+        raise InputError(f"{source}: {100 * mid:.0f} % of the page is in half-tones, not "
+                         "a line drawing (a photo is drawn by the 'abstract' kind); use a "
+                         "picture of line art on plain paper.")
     dist = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     widest = 2.0 * float(np.percentile(dist[mask], 95))
-    if widest > MAX_WIDTH_SHARE * 2 * max(mask.shape):
+    if widest > MAX_WIDTH_SHARE * max(mask.shape):
         raise InputError(f"{source}: the dark areas are {widest:.0f} px wide, too wide for "
-                         "line art on a page this size; use a picture of a line drawing "
-                         "(a photo is drawn by the 'abstract' kind instead).")
+                         "line art on a page this size, so this is not a line drawing; use "
+                         "a picture of line art (a photo is drawn by the 'abstract' kind).")

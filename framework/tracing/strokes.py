@@ -4,8 +4,8 @@ formed, directed and ordered the way a hand draws them.
 1. **Centrelines**: the mask's skeleton (:func:`skimage.morphology.skeletonize`) as a graph
    of paths between tips and junctions (:class:`skan.Skeleton`); the ink's radius along it
    is the distance transform (OpenCV's, exact) less half a pixel.
-2. **Graph**: junction pixels joined by a path shorter than the ink is wide are one
-   junction (a crossing skeletonises into two forks a few pixels apart); a branch from a
+2. **Graph**: junction pixels joined by a path shorter than :data:`MERGE` ink radii are
+   one junction (a crossing skeletonises into two forks a few pixels apart); a branch from a
    junction to a tip shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur
    of the ink's outline, not a stroke, and is dropped.
    Where a branch from a tip meets a fork whose other two arms close in at an inner
@@ -36,6 +36,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: junctions joined by a branch shorter than this × their radius (+1.5 px) are one: two
+#: strokes crossing at an angle θ skeletonise into two forks about 2r/tan(θ/2) apart
+MERGE = 2.5
 #: a junction-to-tip branch shorter than this × the junction's radius (+ 1 px) is a spur
 SPUR = 1.6
 #: branch ends at a junction that bend by less than this (degrees) continue each other
@@ -160,7 +163,7 @@ def _branches(skeleton: np.ndarray, radius: np.ndarray
             ra = radius[int(pts[0, 1]), int(pts[0, 0])]
             rb = radius[int(pts[-1, 1]), int(pts[-1, 0])]
             length = float(np.hypot(*np.diff(pts, axis=0).T).sum())
-            if length <= max(ra, rb) + 1.5:
+            if length <= MERGE * max(ra, rb) + 1.5:
                 union.join(a, b)
                 absorbed.add(i)
     members: dict[int, list[np.ndarray]] = {}

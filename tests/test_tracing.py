@@ -1,0 +1,348 @@
+"""Pictures of line drawings into traces (inkmotion.tracing) and fits from pictures.
+
+The robustness table first (toppra's habit): each kind of picture a user has, and each
+drawing feature that makes stroke recovery hard (a crossing, a T, a corner, a loop, a
+cusp, a dot, touching strokes, a wide brush), with what the tracer must find. Then each
+refusal in one sentence, the `inkmotion trace` command, and a fit from a picture judged
+against the recording it was drawn from.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from PIL import Image
+
+from inkmotion.errors import InputError
+from inkmotion.tracing import read_picture, trace_picture
+from inkmotion.tracing.picture import WORK_PIXELS
+from inkmotion.tracing.strokes import stroke_graph
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "gml"
+
+
+def page(size: tuple[int, int] = (400, 300), paper: int = 240) -> np.ndarray:
+    """A blank grey page (H, W) uint8."""
+    return np.full((size[1], size[0]), paper, np.uint8)
+
+
+def line(img: np.ndarray, pts: list[tuple[float, float]], width: int = 6, ink: int = 30
+         ) -> np.ndarray:
+    """``pts`` drawn on ``img`` as one antialiased polyline ``width`` px wide."""
+    arr = np.round(np.asarray(pts, float) * 16).astype(np.int32)
+    cv2.polylines(img, [arr], False, ink, width, cv2.LINE_AA, 4)
+    return img
+
+
+def save(tmp_path: Path, img: np.ndarray, name: str = "p.png", **kw: object) -> str:
+    path = tmp_path / name
+    cv2.imwrite(str(path), img, *([kw["params"]] if "params" in kw else []))
+    return str(path)
+
+
+def strokes_of(tmp_path: Path, img: np.ndarray, name: str = "p.png") -> list[np.ndarray]:
+    return trace_picture(read_picture(save(tmp_path, img, name))).strokes
+
+
+def direction(s: np.ndarray) -> np.ndarray:
+    d = s[-1, :2] - s[0, :2]
+    return d / np.hypot(*d)
+
+
+# -- the robustness table -------------------------------------------------------------
+
+def test_a_crossing_is_two_strokes_each_straight_through(tmp_path: Path) -> None:
+    img = line(page(), [(50, 50), (350, 250)])
+    img = line(img, [(50, 250), (350, 50)])
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 2
+    for s in strokes:  # each runs from one corner of the page to the opposite one
+        assert np.hypot(*(s[-1, :2] - s[0, :2])) > 330
+    # a writer pulls both down from the top; order left to right by the left edge
+    assert all(s[0, 1] < s[-1, 1] for s in strokes)
+
+
+def test_a_t_junction_is_a_bar_and_a_stem(tmp_path: Path) -> None:
+    img = line(page(), [(60, 60), (340, 60)])
+    img = line(img, [(200, 60), (200, 260)])
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 2
+    bar = min(strokes, key=lambda s: np.ptp(s[:, 1]))
+    stem = max(strokes, key=lambda s: np.ptp(s[:, 1]))
+    assert bar[0, 0] < bar[-1, 0] and np.ptp(bar[:, 0]) > 260  # left to right, whole
+    assert stem[0, 1] < stem[-1, 1] and stem[-1, 1] > 250  # top down to its foot
+
+
+def test_a_corner_is_one_stroke(tmp_path: Path) -> None:
+    img = line(page(), [(80, 50), (80, 250), (320, 250)])
+    (stroke,) = strokes_of(tmp_path, img)
+    assert np.allclose(stroke[0, :2], (80, 50), atol=4)  # begun at the top
+    assert np.allclose(stroke[-1, :2], (320, 250), atol=4)
+
+
+def test_a_loop_begins_at_its_top_and_runs_counter_clockwise(tmp_path: Path) -> None:
+    img = page()
+    cv2.circle(img, (200, 150), 90, 30, 6, cv2.LINE_AA)
+    (loop,) = strokes_of(tmp_path, img)
+    assert np.hypot(*(loop[0, :2] - loop[-1, :2])) < 2  # closed
+    assert loop[0, 1] == pytest.approx(60, abs=4)  # the top of the circle
+    x, y = loop[:, 0], loop[:, 1]
+    area = 0.5 * np.sum(x[:-1] * y[1:] - x[1:] * y[:-1])
+    assert area < 0  # y down: negative shoelace area is counter-clockwise on the page
+
+
+def test_a_cusp_is_drawn_out_to_its_point_and_back(tmp_path: Path) -> None:
+    img = line(page(), [(100, 260), (200, 40), (300, 260)], width=8)
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 1, [len(s) for s in strokes]
+    assert strokes[0][:, 1].min() < 55  # reaches the point (the spike is not pruned)
+
+
+def test_spurs_of_a_wide_brush_are_pruned(tmp_path: Path) -> None:
+    img = line(page(), [(60, 150), (340, 150)], width=18)  # a fat bar: ends grow spurs
+    strokes = trace_picture(read_picture(save(tmp_path, img)), varying_width=True).strokes
+    assert len(strokes) == 1
+    s = strokes[0]
+    assert np.ptp(s[:, 1]) < 6  # straight, no fork at either end
+    assert np.median(s[:, 2]) == pytest.approx(9, abs=1.5)  # the brush's radius
+
+
+def test_a_dot_is_a_dab_and_comes_in_reading_order(tmp_path: Path) -> None:
+    img = line(page(), [(100, 120), (100, 260)])
+    cv2.circle(img, (100, 70), 6, 30, -1, cv2.LINE_AA)  # the dot of an i
+    img = line(img, [(250, 120), (250, 260)])
+    traces = trace_picture(read_picture(save(tmp_path, img)))
+    assert traces.meta["extraction"]["dots"] == 1
+    firsts = [s[0, :2] for s in traces.strokes]
+    assert len(firsts) == 3
+    assert firsts[0][0] < 150 and firsts[1][0] < 150 and firsts[2][0] > 200
+
+
+def test_lines_of_text_are_read_top_to_bottom(tmp_path: Path) -> None:
+    img = page((400, 400))
+    img = line(img, [(320, 40), (320, 120)])  # line 1, right: a tall letter
+    img = line(img, [(30, 70), (30, 110)])  # line 1, left: a short one beside it
+    img = line(img, [(30, 260), (30, 330)])  # line 2
+    starts = [s[0, :2] for s in strokes_of(tmp_path, img)]
+    assert [round(p[0] / 100) for p in starts] == [0, 3, 0]
+    assert starts[2][1] > 250
+
+
+def test_touching_strokes_keep_their_ends(tmp_path: Path) -> None:
+    img = line(page(), [(60, 100), (200, 160)])
+    img = line(img, [(200, 160), (340, 100)])  # a V lying on its side: one stroke
+    (stroke,) = strokes_of(tmp_path, img)
+    assert stroke[:, 1].max() > 150
+
+
+# -- what a picture may be ------------------------------------------------------------
+
+def drawing() -> np.ndarray:
+    return line(line(page(), [(60, 60), (340, 240)]), [(60, 240), (200, 60)])
+
+
+@pytest.mark.parametrize("form", ["grey", "rgb", "rgba", "16bit", "palette", "jpeg70",
+                                  "light-on-dark", "uneven-light"])
+def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str) -> None:
+    grey = drawing()
+    path = tmp_path / "in.png"
+    if form == "grey":
+        cv2.imwrite(str(path), grey)
+    elif form == "rgb":
+        cv2.imwrite(str(path), cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR))
+    elif form == "rgba":  # black ink on a transparent page
+        rgba = np.zeros(grey.shape + (4,), np.uint8)
+        rgba[..., 3] = 255 - grey
+        Image.fromarray(rgba, "RGBA").save(path)
+    elif form == "16bit":
+        cv2.imwrite(str(path), grey.astype(np.uint16) * 257)
+    elif form == "palette":
+        Image.fromarray(grey).convert("P").save(path)
+    elif form == "jpeg70":
+        path = tmp_path / "in.jpg"
+        cv2.imwrite(str(path), grey, [cv2.IMWRITE_JPEG_QUALITY, 70])
+    elif form == "light-on-dark":
+        cv2.imwrite(str(path), 255 - grey)
+    elif form == "uneven-light":
+        ramp = np.linspace(1.0, 0.45, grey.shape[1])[None, :]
+        cv2.imwrite(str(path), (grey * ramp).astype(np.uint8))
+    picture = read_picture(str(path))
+    assert picture.inverted == (form == "light-on-dark")
+    strokes = trace_picture(picture).strokes
+    assert len(strokes) == 2, form
+    ends = sorted(tuple(np.round(s[[0, -1], :2].ravel() / 20)) for s in strokes)
+    want = sorted([tuple(np.round(np.array([60, 60, 340, 240]) / 20)),
+                   tuple(np.round(np.array([200, 60, 60, 240]) / 20))])
+    assert ends == want, form
+
+
+def test_invert_forces_light_ink_on_dark_paper(tmp_path: Path) -> None:
+    img = np.full((300, 400), 20, np.uint8)  # mostly paper, so detection would agree
+    path = save(tmp_path, line(img, [(60, 150), (340, 150)], ink=230))
+    assert read_picture(path).inverted and read_picture(path, invert=True).inverted
+    assert len(trace_picture(read_picture(path, invert=True)).strokes) == 1
+
+
+def test_a_huge_picture_is_reduced_and_said(tmp_path: Path) -> None:
+    w, h = 2600, 2000  # 5.2 MP > WORK_PIXELS
+    assert w * h > WORK_PIXELS
+    img = line(np.full((h, w), 235, np.uint8), [(200, 1000), (2400, 1000)], width=20)
+    picture = read_picture(save(tmp_path, img))
+    assert picture.scale == pytest.approx(0.5)
+    assert picture.mask.size <= WORK_PIXELS and "reduced" in picture.notes[0]
+
+
+# -- refusals: one sentence, naming the input ------------------------------------------
+
+def png_claiming(w: int, h: int) -> bytes:
+    """A PNG whose header says w × h pixels and whose data is cut short."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return len(data).to_bytes(4, "big") + body + zlib.crc32(body).to_bytes(4, "big")
+    ihdr = w.to_bytes(4, "big") + h.to_bytes(4, "big") + bytes([8, 0, 0, 0, 0])
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64))
+
+
+@pytest.mark.parametrize("case, words", [
+    ("blank", "looks blank"),
+    ("all-ink", "% of the page is ink"),
+    ("photo", "not a line drawing"),
+    ("fat-blots", "not a line drawing"),
+    ("not-an-image", "not a picture"),
+    ("truncated-png", "cannot be decoded"),
+    ("truncated-jpeg", "cannot be decoded"),
+    ("huge", "megapixels"),
+    ("tiny", "too small"),
+])
+def test_bad_pictures_are_refused_in_one_sentence(tmp_path: Path, case: str,
+                                                  words: str) -> None:
+    path = tmp_path / ("in.jpg" if case == "truncated-jpeg" else "in.png")
+    rng = np.random.default_rng(0)
+    if case == "blank":
+        cv2.imwrite(str(path), page())
+    elif case == "all-ink":
+        cv2.imwrite(str(path), page(paper=235) // 8 + np.uint8(
+            rng.integers(0, 2, (300, 400)) * 200))
+    elif case == "photo":  # blotches of tone everywhere: no line art
+        blobs = cv2.GaussianBlur(rng.random((300, 400)).astype(np.float32), (0, 0), 12)
+        cv2.imwrite(str(path), (255 * (blobs - blobs.min()) / np.ptp(blobs)).astype(np.uint8))
+    elif case == "fat-blots":  # solid discs, no half-tones: too wide to be strokes
+        img = page()
+        for x in (80, 200, 320):
+            cv2.circle(img, (x, 150), 15, 20, -1)
+        cv2.imwrite(str(path), img)
+    elif case == "not-an-image":
+        path.write_text("<svg>this is no picture</svg>")
+    elif case == "truncated-png":
+        cv2.imwrite(str(path), drawing())
+        path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    elif case == "truncated-jpeg":
+        cv2.imwrite(str(path), drawing())
+        path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    elif case == "huge":
+        path.write_bytes(png_claiming(30_000, 20_000))
+    elif case == "tiny":
+        cv2.imwrite(str(path), np.zeros((4, 4), np.uint8))
+    with pytest.raises(InputError) as err:
+        trace_picture(read_picture(str(path)))
+    message = str(err.value)
+    assert words in message and str(path) in message, message
+    assert message.count(". ") == 0 and message.endswith("."), message
+
+
+# -- the command line ------------------------------------------------------------------
+
+def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "inkmotion", *args], capture_output=True,
+                          text=True, cwd=cwd)
+
+
+def test_trace_writes_svg_gml_png_and_the_gml_reads_back(tmp_path: Path) -> None:
+    out = tmp_path / "strokes"
+    done = cli("trace", "sample:brush-scan", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        "extraction.json", "strokes.gml", "strokes.png", "strokes.svg"]
+    ex = json.loads((out / "extraction.json").read_text())
+    from inkmotion.kinds.read import read_input
+
+    back = read_input(str(out / "strokes.gml"))
+    assert len(back.strokes) == ex["strokes"] >= 8  # 'inkmotion' in script: several strokes
+    assert (out / "strokes.svg").read_text().count("<path") == ex["strokes"]
+    assert cv2.imread(str(out / "strokes.png")).shape[:2] == cv2.imread(
+        str(Path(read_input.__globals__["locate"]("sample:brush-scan")))).shape[:2]
+
+
+def test_trace_of_a_bad_picture_writes_nothing(tmp_path: Path) -> None:
+    bad = tmp_path / "blank.png"
+    cv2.imwrite(str(bad), page())
+    done = cli("trace", str(bad), "--out", str(tmp_path / "out"))
+    assert done.returncode != 0 and "looks blank" in done.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_unknown_tracer_is_refused(tmp_path: Path) -> None:
+    done = cli("trace", "sample:brush-scan", "--tracer", "nope", "--out", str(tmp_path / "o"))
+    assert done.returncode != 0 and "nope" in done.stderr
+    assert "skeleton" in done.stderr
+
+
+@pytest.mark.slow
+def test_a_fit_from_a_picture_is_judged_against_the_picture(tmp_path: Path) -> None:
+    """A word rendered as a scan, fitted from the picture alone: the motion lies on the
+    true trace, the report holds the extraction, input.json the extracted strokes."""
+    from inkmotion.benchmarks.pictures import SCANS, render_scan
+    from inkmotion.geometry.chamfer import chamfer
+    from inkmotion.kinds.read import read_input
+
+    truth = read_input("text:hi").fit_to_canvas(700).strokes
+    pic = tmp_path / "hi.jpg"
+    render_scan(truth, SCANS[3], pic)  # a phone photo: 5 px, grain, JPEG 70, uneven light
+    out = tmp_path / "fit"
+    done = cli("run", "fit", str(pic), "--steps", "150", "--out", str(out), "--no-record")
+    assert done.returncode == 0, done.stderr
+    report = json.loads((out / "report.json").read_text())
+    ex = report["extraction"]
+    assert ex["strokes"] >= 2 and ex["ink_width_px"]["median"] == pytest.approx(5, abs=1.5)
+    m = ex["canvas_from_picture"]
+    on_canvas = [s[:, :2] * m["scale"] + np.asarray(m["offset"]) for s in truth]
+    data = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
+    mean, worst = chamfer(on_canvas, [np.column_stack((data["x"], data["y"]))])
+    assert mean < 1.0 and worst < 10.0, (mean, worst)
+    stored = json.loads((out / "input.json").read_text())["traces"]
+    assert len(stored) == ex["strokes"]
+    assert report["delta_t_at_clamp"] < 0.5 and report["moves"] <= 4 * ex["strokes"] + 8
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared (the development set)")
+def test_a_recorded_tag_as_a_scan_keeps_its_strokes_in_place(tmp_path: Path) -> None:
+    """Extraction alone (no fit) of a real tag rendered as a scan: every point of every
+    extracted stroke lies on the true trace, and most of the true ink is covered."""
+    from scipy.spatial import cKDTree
+
+    from inkmotion.benchmarks.pictures import SCANS, render_scan
+    from inkmotion.geometry.chamfer import densify
+    from inkmotion.kinds.read import read_input
+
+    truth = read_input(str(SHARED / "49867.json")).fit_to_canvas(1000).strokes
+    pic = tmp_path / "tag.jpg"
+    render_scan(truth, SCANS[1], pic)
+    strokes = trace_picture(read_picture(str(pic))).strokes
+    true_pts = np.vstack([densify(s, 1.0) for s in truth])
+    got = np.vstack([densify(s[:, :2], 1.0) for s in strokes])
+    off, _ = cKDTree(true_pts).query(got)
+    missed, _ = cKDTree(got).query(true_pts)
+    assert np.percentile(off, 99) < 6 and np.mean(missed < 6) > 0.97
+
+
+def test_stroke_graph_of_an_empty_mask_is_empty() -> None:
+    graph = stroke_graph(np.zeros((50, 50), bool))
+    assert graph.strokes == [] and math.isclose(graph.junctions, 0)
