@@ -2,9 +2,9 @@
 
 - foundation: the top-level modules ``inkmotion.errors, json_files, settings, rng, lazy,
   events, devices`` — import only the foundation.
-- engines: ``sigma_lognormal, geometry, inputs, rendering, image_losses, fitting, clip,
-  saliency, initialisers, images, outputs, robot, evaluation, recording, profiling, store,
-  samples``
+- engines: ``sigma_lognormal, geometry, inputs, tracing, rendering, image_losses, fitting,
+  clip, saliency, initialisers, images, outputs, robot, evaluation, recording, profiling,
+  store, samples``
   and the top-level ``speed_extrema`` — import the foundation, the engines and
   ``inkmotion.plugin_host.protocols`` only.
 - plugin host: ``inkmotion.plugin_host`` — imports the foundation (the protocols' engine
@@ -52,8 +52,8 @@ OUTSIDE = {"inkmotion", "inkmotion.__main__"}
 PROTOCOLS = "inkmotion.plugin_host.protocols"
 
 FOUNDATION = ("errors", "json_files", "settings", "rng", "lazy", "events", "devices")
-ENGINES = ("sigma_lognormal", "geometry", "inputs", "rendering", "image_losses", "fitting",
-           "clip", "saliency", "initialisers", "images", "outputs", "robot", "plotter",
+ENGINES = ("sigma_lognormal", "geometry", "inputs", "tracing", "rendering", "image_losses",
+           "fitting", "clip", "saliency", "initialisers", "images", "outputs", "robot", "plotter",
            "evaluation", "recording", "profiling", "store", "samples", "speed_extrema")
 
 #: layer -> (its packages under ``inkmotion.``, the layers it may import, the rule in words)

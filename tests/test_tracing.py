@@ -317,6 +317,9 @@ def test_a_fit_from_a_picture_is_judged_against_the_picture(tmp_path: Path) -> N
     data = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
     mean, worst = chamfer(on_canvas, [np.column_stack((data["x"], data["y"]))])
     assert mean < 1.0 and worst < 10.0, (mean, worst)
+    from test_docs import documented_keys, report_mismatches
+
+    assert report_mismatches(report, documented_keys("fit")) == []  # docs/formats.md
     stored = json.loads((out / "input.json").read_text())["traces"]
     assert len(stored) == ex["strokes"]
     assert report["delta_t_at_clamp"] < 0.5 and report["moves"] <= 4 * ex["strokes"] + 8

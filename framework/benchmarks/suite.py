@@ -16,7 +16,7 @@ __all__ = ["DEFAULT_BENCHES", "TARGETS", "figures_record", "print_figures", "run
 
 #: run when no ``--only`` is given; the others run only when named (queue: it starts
 #: redis-server and worker subprocesses, a few minutes; generation: CLIP ViT-B-32 jobs)
-DEFAULT_BENCHES = ("kinematics", "raster", "spray", "fit", "recording")
+DEFAULT_BENCHES = ("kinematics", "raster", "spray", "fit", "extraction", "recording")
 
 
 def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]]:
@@ -42,6 +42,11 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
         if device != "cpu":  # the issue's GPU figure: the same tag at 1000 px
             figures.update(bench_fit(fit_input, size=1000, device=device))
         return figures
+
+    def extraction() -> dict:
+        from inkmotion.benchmarks.extraction import bench_extraction
+
+        return bench_extraction()
 
     def recording() -> dict:
         from inkmotion.benchmarks.recording import bench_recording
@@ -76,7 +81,7 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
         return {}
 
     return {"kinematics": kinematics, "raster": raster, "spray": spray, "fit": fit,
-            "recording": recording,
+            "extraction": extraction, "recording": recording,
             "queue": queue, "generation": generation, "gallery": gallery, "tsp": tsp,
             "throughput": throughput}
 

@@ -83,11 +83,12 @@ def plugins_cmd(
 def bench_cmd(
     only: Annotated[Optional[list[str]], typer.Option(  # noqa: UP045
         "--only",
-        help="Run only these (repeatable): kinematics, raster, spray, fit, recording (the "
-             "default set); opt-in: queue (fit jobs through a local redis-server and "
-             "Celery workers), generation (CLIP tag and abstract, seconds per step), "
-             "gallery (build a gallery of 100 jobs, rebuild it), throughput (minutes: "
-             "fits per minute side by side and batched), tsp (the tour solvers).")] = None,
+        help="Run only these (repeatable): kinematics, raster, spray, fit, extraction, "
+             "recording (the default set); opt-in: queue (fit jobs through a local "
+             "redis-server and Celery workers), generation (CLIP tag and abstract, "
+             "seconds per step), gallery (build a gallery of 100 jobs, rebuild it), "
+             "throughput (minutes: fits per minute side by side and batched), tsp (the "
+             "tour solvers).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
         help="Input of the fit benchmark (default: sample:tempt-1, a recorded tag shipped "
              "with inkmotion).")] = None,
