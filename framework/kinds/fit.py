@@ -193,7 +193,13 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
 
     def finish(staged: StagedFit) -> dict[str, Any]:
         report = _write(job, traces, staged, canvas, target)
-        notes = _ignored_options(p) + ([asked] if asked else [])
+        said = [f"{source}: {note}." for note in
+                traces.meta.get("extraction", {}).get("notes", [])]  # reduced, inverted
+        unused = [] if traces.picture is not None else [
+            f"{flag} applies to a picture input only; {source} is not one, so it has no "
+            "effect." for flag, on in (("--invert", p.invert),
+                                       ("--varying-width", p.varying_width)) if on]
+        notes = said + unused + _ignored_options(p) + ([asked] if asked else [])
         if notes:
             report["warnings"] = [*notes, *report.get("warnings", [])]
         return report
