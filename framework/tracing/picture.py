@@ -10,8 +10,9 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
 2. **Polarity**: the paper is what most of the page is, so a page whose median grey is
    below ½ is light ink on dark paper and is inverted (``invert=True`` forces it).
 3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
-   paper itself, the grey image closed (max then min) over a window wider than any stroke
-   and blurred; the ink is then 1 − grey / paper, in [0, 1].
+   paper itself: the grey image, its grain calmed by a Gaussian of σ = :data:`DENOISE`,
+   closed (max then min) over a window wider than any stroke and blurred; the ink is then
+   1 − grey / paper, in [0, 1].
 4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), a 3 × 3 median against JPEG noise, small specks removed and
    pin-holes filled (:mod:`skimage.morphology`).
@@ -39,6 +40,8 @@ WORK_PIXELS = 4_000_000
 REFUSE_PIXELS = 400_000_000
 #: the least darkness, against the paper, that counts as ink
 MIN_CONTRAST = 0.18
+#: σ (px) of the Gaussian that calms grain and JPEG noise before the paper is estimated
+DENOISE = 1.0
 #: a page with more ink than this share is not line art
 MAX_INK_SHARE = 0.35
 #: ink whose widest strokes (95th percentile) are more than this share of the page's
@@ -188,9 +191,9 @@ def ink_map(grey: np.ndarray) -> np.ndarray:
 
     k = paper_window(grey.shape)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
-    paper = cv2.morphologyEx(grey, cv2.MORPH_CLOSE, kernel)  # removes the dark strokes
-    paper = cv2.blur(paper, (k, k))
-    paper = np.maximum(paper, grey)  # the blur may dip below a pixel of paper
+    calm = cv2.GaussianBlur(grey, (0, 0), DENOISE)  # a max over grain would lift the paper
+    paper = cv2.morphologyEx(calm, cv2.MORPH_CLOSE, kernel)  # removes the dark strokes
+    paper = np.maximum(cv2.blur(paper, (k, k)), calm)  # the blur may dip below the paper
     return np.clip(1.0 - grey / np.maximum(paper, 1e-3), 0.0, 1.0).astype(np.float32)
 
 
@@ -224,7 +227,8 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray) -> None:
         raise InputError(f"{source}: {100 * share:.0f} % of the page is ink, which is not a line "
                          "drawing; crop it to the drawing, or pass --invert if the paper is "
                          "the dark part.")
-    mid = float(((ink > MIN_CONTRAST) & ~mask).mean())  # tones between paper and ink
+    calm = cv2.GaussianBlur(ink, (0, 0), DENOISE)  # grain is no half-tone
+    mid = float(((calm > MIN_CONTRAST) & ~mask).mean())  # tones between paper and ink
     if mid > max(0.05, 2.0 * share):
         raise InputError(f"{source}: {100 * mid:.0f} % of the page is in half-tones, not "
                          "a line drawing (a photo is drawn by the 'abstract' kind); use a "
