@@ -7,7 +7,7 @@ PIP := $(PY) -m pip
 DEMO_OUT ?= results/demo
 DEMO_INPUT ?= text:inkmotion
 
-.PHONY: demo test venv test-venv redis postgres browser gallery lint bench docs clean
+.PHONY: demo demo-picture test venv test-venv redis postgres browser gallery lint bench docs clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -37,6 +37,13 @@ demo: $(VENV)/.installed
 	$(VENV)/bin/inkmotion run fit "$(DEMO_INPUT)" --out $(DEMO_OUT)
 	@echo "Results: $(abspath $(DEMO_OUT)) (open drawing.svg, overlay.png, speed.png;" \
 	      "replay with: $(VENV)/bin/inkmotion view $(DEMO_OUT)/recording.rrd)"
+
+## demo-picture: the same from a picture: trace the shipped brush scan, then fit it
+demo-picture: $(VENV)/.installed
+	$(VENV)/bin/inkmotion trace sample:brush-scan --out $(DEMO_OUT)-strokes --force
+	$(VENV)/bin/inkmotion run fit sample:brush-scan --varying-width --out $(DEMO_OUT)-picture --force
+	@echo "Results: $(abspath $(DEMO_OUT))-strokes/strokes.png (the strokes found, in order)" \
+	      "and $(abspath $(DEMO_OUT))-picture/overlay.png (the motion over the picture)"
 
 ## redis: the test suite starts its own redis-server; install the Debian package if missing
 redis:
