@@ -315,7 +315,9 @@ def test_a_fit_from_a_picture_is_judged_against_the_picture(tmp_path: Path) -> N
     m = ex["canvas_from_picture"]
     on_canvas = [s[:, :2] * m["scale"] + np.asarray(m["offset"]) for s in truth]
     data = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
-    mean, worst = chamfer(on_canvas, [np.column_stack((data["x"], data["y"]))])
+    paths = [np.column_stack((data["x"], data["y"]))[data["path"] == k]
+             for k in np.unique(data["path"])]  # each path alone: no pen-up jumps
+    mean, worst = chamfer(on_canvas, paths)
     assert mean < 1.0 and worst < 10.0, (mean, worst)
     from test_docs import documented_keys, report_mismatches
 
@@ -349,3 +351,27 @@ def test_a_recorded_tag_as_a_scan_keeps_its_strokes_in_place(tmp_path: Path) -> 
 def test_stroke_graph_of_an_empty_mask_is_empty() -> None:
     graph = stroke_graph(np.zeros((50, 50), bool))
     assert graph.strokes == [] and math.isclose(graph.junctions, 0)
+
+
+@pytest.mark.slow
+def test_varying_width_fits_a_brush_picture_as_a_brush(tmp_path: Path) -> None:
+    """--varying-width: the plan carries a radius that follows the brush, and the drawing
+    covers the picture's ink (IoU, at the fit's canvas)."""
+    from inkmotion.tracing import read_picture, trace_picture
+
+    img = page((500, 300))
+    for x in (120, 250, 380):  # three strokes, thin going across, wide going down
+        line(img, [(x - 60, 80), (x + 40, 80)], width=6)
+        line(img, [(x, 80), (x, 240)], width=18)
+    pic = save(tmp_path, img)
+    out = tmp_path / "fit"
+    done = cli("run", "fit", pic, "--varying-width", "--steps", "150", "--out", str(out),
+               "--no-record")
+    assert done.returncode == 0, done.stderr
+    plan = json.loads((out / "plan.json").read_text())
+    radii = [p[2] for path in plan["paths"] for p in path["points"]]
+    assert len(plan["paths"][0]["points"][0]) == 3 and max(radii) > 1.8 * min(radii)
+    drawn = cv2.imread(str(out / "drawing.png"), cv2.IMREAD_GRAYSCALE) < 128
+    ink = trace_picture(read_picture(pic), True).fit_to_canvas(350).picture > 0.5
+    assert drawn.shape == ink.shape
+    assert (drawn & ink).sum() / (drawn | ink).sum() > 0.7
