@@ -375,3 +375,12 @@ def test_varying_width_fits_a_brush_picture_as_a_brush(tmp_path: Path) -> None:
     ink = trace_picture(read_picture(pic), True).fit_to_canvas(350).picture > 0.5
     assert drawn.shape == ink.shape
     assert (drawn & ink).sum() / (drawn | ink).sum() > 0.7
+
+
+def test_the_shipped_brush_scan_is_what_the_generator_draws() -> None:
+    from inkmotion.samples import path_of
+    from inkmotion.samples.generate import brush_scan
+
+    shipped = cv2.imread(path_of("brush-scan"), cv2.IMREAD_UNCHANGED)
+    assert shipped.dtype == np.uint8 and shipped.ndim == 2
+    assert np.array_equal(shipped, brush_scan())
