@@ -32,11 +32,11 @@ def trace_cmd(
 
     Examples:
 
-      inkmotion trace sample:tag-scan --out results/tag-strokes
+      inkmotion trace sample:brush-scan --out results/scan-strokes
 
       inkmotion trace chalk_on_board.jpg --invert --out results/board
 
-      inkmotion run fit results/tag-strokes/strokes.gml --out results/tag
+      inkmotion run fit results/scan-strokes/strokes.gml --out results/scan
     """
     if out is None:
         fail("give the folder to write: --out DIR.", code=2)
