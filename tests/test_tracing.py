@@ -126,6 +126,16 @@ def test_a_dot_is_a_dab_and_comes_in_reading_order(tmp_path: Path) -> None:
     assert firsts[0][0] < 150 and firsts[1][0] < 150 and firsts[2][0] > 200
 
 
+def test_specks_smaller_than_the_pen_are_noise_not_dots(tmp_path: Path) -> None:
+    img = line(page(), [(60, 150), (340, 150)])
+    rng = np.random.default_rng(3)
+    for x, y in rng.integers(20, 280, (30, 2)):
+        if abs(y - 150) > 20:
+            img[y:y + 3, x:x + 3] = 30  # 3 x 3 specks: they outlive the median filter
+    traces = trace_picture(read_picture(save(tmp_path, img)))
+    assert len(traces.strokes) == 1 and traces.meta["extraction"]["dots"] == 0
+
+
 def test_lines_of_text_are_read_top_to_bottom(tmp_path: Path) -> None:
     img = page((400, 400))
     img = line(img, [(320, 40), (320, 120)])  # line 1, right: a tall letter

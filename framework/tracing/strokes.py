@@ -22,8 +22,9 @@ formed, directed and ordered the way a hand draws them.
    (smaller :data:`ACROSS_WEIGHT` · x + y); a loop begins at its top and runs
    counter-clockwise on the page, as the Latin script's o. Strokes are ordered in lines,
    top to bottom, each line left to right (by the stroke's left edge).
-5. **Dots**: ink whose skeleton is a point or shorter than its width is a dab: a stroke
-   of two points across the blob.
+5. **Dots**: ink that no stroke passes through is a dab, a stroke of two points across
+   the blob, when it is at least as big as a dab of the drawing's pen; smaller specks
+   (and any stroke within one) are noise and are dropped.
 
 Coordinates: x, y in the picture's pixels, pixel centres at half-integers (the renderer's
 convention); each stroke (k, 3) with its radius.
@@ -107,7 +108,7 @@ def stroke_graph(mask: np.ndarray) -> StrokeGraph:
     chains, loops = _chain(branches, nodes)
     strokes = [_stroke_points(chain, branches, nodes, radius) for chain in chains]
     strokes = [s for s in strokes if len(s) >= 2]
-    dots = _dots(mask, skeleton, radius, strokes)
+    strokes, dots = _dots(mask, radius, strokes)
     strokes = _directed(strokes) + dots
     junctions = sum(1 for n in nodes.values() if n.degree >= 3)
     tips = sum(1 for n in nodes.values() if n.degree == 1)
@@ -394,27 +395,36 @@ def _simplify(pts: np.ndarray, closed: bool, tol: float = 0.2) -> np.ndarray:
     return pts[np.unique(idx)]
 
 
-def _dots(mask: np.ndarray, skeleton: np.ndarray, radius: np.ndarray,
-          strokes: list[np.ndarray]) -> list[np.ndarray]:
-    """Dabs for ink blobs that no stroke passes through (step 5)."""
+def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
+          ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The strokes without specks, and dabs for the blobs no stroke passes through (step
+    5). A blob smaller than a dab of the drawing's own pen (π r² for the strokes' median
+    radius r, at least 3 px²) is a speck of noise: dropped, with any stroke inside it."""
     import cv2
 
     count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
+    pen = float(np.median(np.concatenate([s[:, 2] for s in strokes]))) if strokes else 0.0
+    least = max(3.0, math.pi * pen * pen)
+    speck = stats[:, cv2.CC_STAT_AREA] < least
     covered = np.zeros(count, bool)
+    kept = []
     for s in strokes:
         rows = np.clip(s[:, 1].astype(int), 0, mask.shape[0] - 1)
         cols = np.clip(s[:, 0].astype(int), 0, mask.shape[1] - 1)
-        covered[labels[rows, cols]] = True
+        blobs = labels[rows, cols]
+        covered[blobs] = True
+        if not np.all(speck[blobs] | (blobs == 0)):
+            kept.append(s)
     dots = []
-    for label in range(1, count):
-        if covered[label]:
-            continue
+    for label in np.flatnonzero(~covered[1:] & ~speck[1:]) + 1:
+        x0, y0, w, h = (int(stats[label, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP,
+                                                      cv2.CC_STAT_WIDTH, cv2.CC_STAT_HEIGHT))
+        box = labels[y0:y0 + h, x0:x0 + w] == label
+        r = float(radius[y0:y0 + h, x0:x0 + w][box].max())
         cx, cy = centroids[label]
-        r = float(radius[labels == label].max())
-        w = stats[label, cv2.CC_STAT_WIDTH] / 2.0
-        half = max(0.5, w - r)
+        half = max(0.5, w / 2.0 - r)
         dots.append(np.array([[cx + 0.5 - half, cy + 0.5, r], [cx + 0.5 + half, cy + 0.5, r]]))
-    return dots
+    return kept, dots
 
 
 def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
