@@ -180,7 +180,8 @@ def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
         drawn = cv2.imread(str(folder / "fit" / "drawing.png"), cv2.IMREAD_GRAYSCALE)
         from inkmotion.tracing import read_picture, trace_picture
 
-        ink = trace_picture(read_picture(str(pic)), True).fit_to_canvas(350).picture
+        size = json.loads((folder / "fit" / "job.json").read_text())["spec"]["params"]["size"]
+        ink = trace_picture(read_picture(str(pic)), True).fit_to_canvas(size).picture
         a, b = (255 - drawn) > 127, ink > 0.5
         if a.shape == b.shape:
             row["iou"] = round(float((a & b).sum() / max((a | b).sum(), 1)), 3)

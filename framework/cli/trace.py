@@ -40,19 +40,15 @@ def trace_cmd(
     """
     if out is None:
         fail("give the folder to write: --out DIR.", code=2)
+    from inkmotion.kinds.read import trace_input
     from inkmotion.outputs import StagingDir, refuse_to_overwrite
     from inkmotion.plugin_host import plugin
-    from inkmotion.samples import locate
-    from inkmotion.tracing import read_picture
     from inkmotion.tracing.outputs import write_trace
 
     try:
-        source = locate(image)
-        if not Path(source).is_file():
-            fail(f"{source}: no such file; check the path.", code=2)
         refuse_to_overwrite(out, force)
-        picture = read_picture(source, invert=invert)
-        traces = plugin("tracer", tracer)(picture, varying_width=True)
+        traces, picture = trace_input(image, plugin("tracer", tracer), invert=invert,
+                                      varying_width=True)
         with StagingDir(out) as stage:
             assert stage.path is not None
             names = write_trace(traces, picture.grey, stage.path)

@@ -211,21 +211,14 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
 def _read(job: Job, source: str) -> Any:
     """The traces of ``source``: a picture through the job's tracer (``--invert``,
     ``--varying-width``), anything else through the readers."""
-    from inkmotion.kinds.read import read_input
+    from inkmotion.kinds.read import read_input, trace_input
     from inkmotion.samples import locate
-    from inkmotion.tracing.picture import is_picture, read_picture
+    from inkmotion.tracing.picture import is_picture
 
     p: FitParams = job.params
-    path = locate(source)
-    if p.reader is None and is_picture(path):
-        import time
-
-        start = time.perf_counter()
-        picture = read_picture(path, invert=p.invert)
-        traces = job.plugin(p.tracer)(picture, varying_width=p.varying_width,
-                                      **job.options(p.tracer))
-        traces.meta.setdefault("extraction", {})["seconds_with_decoding"] = round(
-            time.perf_counter() - start, 4)
+    if p.reader is None and is_picture(locate(source)):
+        traces, _ = trace_input(source, job.plugin(p.tracer), invert=p.invert,
+                                varying_width=p.varying_width, **job.options(p.tracer))
         return traces
     return read_input(source, reader=p.reader.name if p.reader else None)
 

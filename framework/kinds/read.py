@@ -7,7 +7,9 @@ file that ships with inkmotion (:func:`inkmotion.samples.locate`)."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
+from typing import Any
 
 from inkmotion.errors import InputError
 from inkmotion.geometry.traces import Traces
@@ -41,3 +43,23 @@ def read_input(source: str, reader: str | None = None) -> Traces:
     raise InputError(
         f"{source}: no reader accepts this input; supported forms are: {forms or 'none'}."
     )
+
+
+def trace_input(source: str, tracer: Any, *, invert: bool = False,
+                varying_width: bool = False, **options: Any) -> tuple[Traces, Any]:
+    """The traces of the picture ``source`` (a path or ``sample:NAME``) through the
+    ``tracer`` plugin object, and the decoded :class:`~inkmotion.tracing.Picture`: decoded
+    (:func:`inkmotion.tracing.read_picture`, ``invert`` forcing light ink on dark paper),
+    traced with ``options``, the whole time recorded as
+    ``meta["extraction"]["seconds_with_decoding"]``."""
+    from inkmotion.tracing import read_picture
+
+    path = locate(source)
+    if not Path(path).is_file():
+        raise InputError(f"{path}: no such file; check the path.")
+    start = time.perf_counter()
+    picture = read_picture(path, invert=invert)
+    traces = tracer(picture, varying_width=varying_width, **options)
+    traces.meta.setdefault("extraction", {})["seconds_with_decoding"] = round(
+        time.perf_counter() - start, 4)
+    return traces, picture

@@ -125,8 +125,12 @@ class _Branch:
 
     @property
     def length(self) -> float:
-        return float(np.hypot(*np.diff(self.points, axis=0).T).sum()) if len(self.points) > 1 \
-            else 0.0
+        return _length(self.points)
+
+
+def _length(points: np.ndarray) -> float:
+    """Length (px) of the polyline ``points`` (k, 2)."""
+    return float(np.hypot(*np.diff(points, axis=0).T).sum()) if len(points) > 1 else 0.0
 
 
 @dataclass
@@ -163,8 +167,7 @@ def _branches(skeleton: np.ndarray, radius: np.ndarray
         if degrees[a] >= 3 and degrees[b] >= 3 and a != b:
             ra = radius[int(pts[0, 1]), int(pts[0, 0])]
             rb = radius[int(pts[-1, 1]), int(pts[-1, 0])]
-            length = float(np.hypot(*np.diff(pts, axis=0).T).sum())
-            if length <= MERGE * max(ra, rb) + 1.5:
+            if _length(pts) <= MERGE * max(ra, rb) + 1.5:
                 union.join(a, b)
                 absorbed.add(i)
     members: dict[int, list[np.ndarray]] = {}
