@@ -30,6 +30,7 @@ from inkmotion.cli import (
     robot,
     run,
     samples,
+    studio,
     submit,
     trace,
     view,
@@ -134,7 +135,7 @@ def _register_groups() -> None:
     """Add the command groups; `inkmotion --help` lists commands first, then groups, each in
     the order registered here."""
     for group in (run, submit, trace, evaluate, benchmark, samples, render, jobs, worker, view,
-                  gallery, clip, robot):
+                  gallery, clip, robot, studio):
         group.register(app)
 
 

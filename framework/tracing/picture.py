@@ -74,6 +74,12 @@ def is_picture(source: str) -> bool:
     return Path(source).suffix.lower() in SUFFIXES
 
 
+
+def too_many_pixels(source: str, w: int, h: int) -> str:
+    """The sentence for a picture above :data:`REFUSE_PIXELS`."""
+    return (f"{source}: {w} × {h} is {w * h / 1e6:.0f} megapixels, more than the "
+            f"{REFUSE_PIXELS / 1e6:.0f} this reads; scan or export it smaller.")
+
 def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
     """Grey (H, W) float32 in [0, 1] of the picture file ``source``, the decoded size over
     the file's, and notes (module docstring, step 1)."""
@@ -87,9 +93,7 @@ def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
             with Image.open(source) as img:
                 w, h = img.size
                 if w * h > REFUSE_PIXELS:
-                    raise InputError(
-                        f"{source}: {w} × {h} is {w * h / 1e6:.0f} megapixels, more than the "
-                        f"{REFUSE_PIXELS / 1e6:.0f} this reads; scan or export it smaller.")
+                    raise InputError(too_many_pixels(source, w, h))
                 factor = max(1, math.ceil(math.sqrt(w * h / WORK_PIXELS)))
                 if factor > 1 and img.format == "JPEG":
                     img.draft("L", (w // factor, h // factor))

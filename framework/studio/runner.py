@@ -1,0 +1,299 @@
+"""The studio's jobs: run here in threads, or queued for the workers; followed live.
+
+Every job the studio starts is a row of the job store (:mod:`inkmotion.store`) with its
+folder under the data directory (``<data>/jobs/<id>/input`` and ``artifacts``), exactly as
+``inkmotion submit`` records one, so ``inkmotion jobs list`` and the studio's jobs page
+show the same jobs, and a job outlives the page that started it.
+
+- **Here** (the default): the job runs in a thread of this process through the job shell
+  (:func:`inkmotion.jobs.shell.run_job`, atomic artifacts) while holding the store lease
+  the workers hold (:class:`~inkmotion.workers.leases.Heartbeat`), so a studio that dies
+  mid-job leaves a ``running`` row whose lease expires and any worker's reaper queues it
+  again: nothing is lost. At most :attr:`Runner.slots` jobs run at once (the machine's
+  cores over a job's threads); the others wait their turn as ``queued``.
+- **On the workers** (``inkmotion studio --workers``): the job goes through
+  :func:`inkmotion.workers.submit.submit_specs`, and its progress is read from the store.
+
+A page follows a job through :meth:`Runner.events`: the store's progress, and for a job
+running here the live figures and the current drawing a few times a second
+(:class:`LiveObserver`). Closing the page stops nothing: the job finishes and is listed;
+cancelling it stops it at its next step and leaves no artifacts.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from inkmotion.events import RunContext, StepState
+from inkmotion.jobs.spec import JobSpec
+from inkmotion.settings import Settings
+
+log = logging.getLogger("inkmotion.studio")
+
+#: seconds between two live figures (and current drawings) of a running job
+LIVE_EVERY_S = 0.25
+#: points kept per path of a live drawing (the page redraws it; the result has them all)
+LIVE_POINTS = 400
+
+
+class JobCancelled(Exception):
+    """Raised in a job's thread at the step after the page cancelled it."""
+
+
+@dataclass
+class Live:
+    """What a page can see of a job that runs in this process: its event list (appended
+    by the job's thread, read by the page's stream) and its cancel flag."""
+
+    job_id: str
+    events: list[dict[str, Any]] = field(default_factory=list)
+    cancel: threading.Event = field(default_factory=threading.Event)
+    done: threading.Event = field(default_factory=threading.Event)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def emit(self, event: dict[str, Any]) -> None:
+        with self.lock:
+            self.events.append(event)
+
+    def since(self, index: int) -> list[dict[str, Any]]:
+        with self.lock:
+            return self.events[index:]
+
+
+class LiveObserver:
+    """Job observer: the figures and the current drawing of the running job, every
+    :data:`LIVE_EVERY_S` seconds, into its :class:`Live` event list; stops the job with
+    :class:`JobCancelled` once its cancel flag is set. It reads the device only when it
+    emits (a few times a second), never on the other steps."""
+
+    def __init__(self, live: Live) -> None:
+        self.live = live
+        self._last = 0.0
+
+    def _due(self) -> bool:
+        return time.monotonic() - self._last >= LIVE_EVERY_S
+
+    def wants_geometry(self, step: int) -> bool:
+        return self._due()
+
+    def on_start(self, ctx: RunContext) -> None:
+        traces = [_thin(t[:, :2]) for t in ctx.traces] if ctx.traces else []
+        self.live.emit({"type": "start", "total": int(ctx.total_steps),
+                        "canvas": [int(ctx.canvas[0]), int(ctx.canvas[1])],
+                        "traces": traces})
+
+    def on_step(self, state: StepState) -> None:
+        if self.live.cancel.is_set():
+            raise JobCancelled(self.live.job_id)
+        if not (self._due() or state.step == state.total):
+            return
+        self._last = time.monotonic()
+        event: dict[str, Any] = {"type": "step", "step": int(state.step),
+                                 "total": int(state.total)}
+        shown = state.shown()
+        if shown:
+            from inkmotion.events import scalars
+
+            numbers = {k: v for k, v in shown.items()
+                       if v is not None and (hasattr(v, "detach") or isinstance(v, int | float))}
+            event["figures"] = {k: _finite(v) for k, v in scalars(numbers).items()}
+            event["words"] = {k: str(v) for k, v in shown.items() if isinstance(v, str)}
+        if state.positions:
+            event["paths"] = [_thin(_numpy(p)[:, :2]) for p in state.positions]
+        self.live.emit(event)
+
+
+def _numpy(x: Any) -> Any:
+    return x.detach().cpu().numpy() if hasattr(x, "detach") else x
+
+
+def _thin(points: Any) -> list[list[float]]:
+    """At most :data:`LIVE_POINTS` of ``points`` (evenly picked), rounded to 0.1 px."""
+    import numpy as np
+
+    pts = np.asarray(points, dtype=float)
+    if len(pts) > LIVE_POINTS:
+        pts = pts[np.linspace(0, len(pts) - 1, LIVE_POINTS).round().astype(int)]
+    return np.round(pts, 1).tolist()
+
+
+def _finite(v: float) -> float | None:
+    import math
+
+    return v if math.isfinite(v) else None
+
+
+def default_slots(threads: int) -> int:
+    """Jobs run at once here: the machine's cores over a job's threads (at least one)."""
+    return max(1, (os.cpu_count() or 1) // max(1, threads))
+
+
+class Runner:
+    """Starts, follows and cancels the studio's jobs (module docstring)."""
+
+    def __init__(self, settings: Settings, *, workers: bool = False,
+                 slots: int | None = None) -> None:
+        from inkmotion.devices import default_threads
+
+        self.settings = settings
+        self.workers = workers
+        self.slots = slots or default_slots(default_threads())
+        self._pool = ThreadPoolExecutor(self.slots, thread_name_prefix="studio-job")
+        self._live: dict[str, Live] = {}
+        self._lock = threading.Lock()
+        self.host = socket.gethostname()
+
+    # -- starting ------------------------------------------------------------------------
+    def start(self, spec: JobSpec) -> str:
+        """Validate and record ``spec`` (its input files copied into the job's folder), then
+        run it here or queue it for the workers; returns its id. Raises
+        :class:`~inkmotion.errors.InkmotionError` (one sentence) before anything is
+        recorded when the spec is invalid or the broker unreachable."""
+        if self.workers:
+            from inkmotion.workers.submit import submit_specs
+
+            return submit_specs([spec], self.settings)[0].id
+        import shutil
+
+        from inkmotion import store
+        from inkmotion.jobs.kind import resolve
+        from inkmotion.jobs.shell import with_threads
+        from inkmotion.workers.submit import copy_input
+
+        spec = with_threads(spec)
+        job = resolve(spec)
+        job_id = store.new_job_id()
+        job_dir = self.settings.job_dir(job_id)
+        try:
+            stored = copy_input(spec, job_dir, self.settings)
+            store.create_job(stored.to_dict(), kind=spec.kind, queue=job.kind.queue,
+                             job_id=job_id, label=spec.label[:255],
+                             total=int(job.kind.steps(job.params)),
+                             db_url=self.settings.db_url)
+        except Exception:
+            shutil.rmtree(job_dir, ignore_errors=True)
+            raise
+        live = Live(job_id)
+        live.emit({"type": "queued"})
+        with self._lock:
+            self._live[job_id] = live
+        self._pool.submit(self._run, job_id, stored, live)
+        return job_id
+
+    def _run(self, job_id: str, spec: JobSpec, live: Live) -> None:
+        from inkmotion import store
+        from inkmotion.errors import InkmotionError
+        from inkmotion.jobs.shell import run_job
+        from inkmotion.workers.leases import Heartbeat, LeaseLost, attempt_owner
+        from inkmotion.workers.progress import JobCancelled as StoreCancelled
+        from inkmotion.workers.progress import StoreProgressObserver
+
+        db, lease_s = self.settings.db_url, self.settings.lease_s
+        owner = attempt_owner(self.host)
+        try:
+            if live.cancel.is_set() or not store.mark_running(job_id, self.host, db,
+                                                               owner=owner, lease_s=lease_s):
+                live.emit({"type": "end", "status": "cancelled"})
+                return
+            live.emit({"type": "running"})
+            artifacts = self.settings.job_dir(job_id) / "artifacts"
+            with Heartbeat(job_id, owner, db, lease_s) as beat:
+                progress = StoreProgressObserver(job_id, db, owner=owner, lease_s=lease_s,
+                                                 lost=beat.lost)
+                report = run_job(spec, artifacts, [LiveObserver(live), progress],
+                                 record=True, recording_id=job_id)
+            store.mark_succeeded(job_id, str(artifacts), db, metrics=report.get("metrics"),
+                                 owner=owner)
+            live.emit({"type": "end", "status": "succeeded"})
+        except (JobCancelled, StoreCancelled):
+            store.mark_cancelled(job_id, db)
+            live.emit({"type": "end", "status": "cancelled"})
+        except LeaseLost:
+            live.emit({"type": "end", "status": "failed",
+                       "error": "Another process took this job over; see the jobs page."})
+        except InkmotionError as exc:
+            store.mark_failed(job_id, str(exc), db)
+            live.emit({"type": "end", "status": "failed", "error": str(exc)})
+        except Exception as exc:  # noqa: BLE001 - the page gets the failure, the log the trace
+            log.exception("studio job %s crashed", job_id)
+            message = f"Internal error {type(exc).__name__}: {exc}."
+            store.mark_failed(job_id, message, db)
+            live.emit({"type": "end", "status": "failed", "error": message})
+        finally:
+            live.done.set()
+
+    # -- following -----------------------------------------------------------------------
+    def cancel(self, job_id: str) -> bool:
+        """Cancel a queued or running job; ``False`` when it had finished already."""
+        live = self._live.get(job_id)
+        if live is not None:
+            live.cancel.set()
+            if live.done.is_set():
+                return False
+            from inkmotion import store
+
+            record = store.get_job(job_id, self.settings.db_url)
+            if record is not None and record.status == "queued":
+                store.mark_cancelled(job_id, self.settings.db_url)
+            return True
+        from inkmotion.workers.submit import cancel_job
+
+        return cancel_job(job_id, self.settings)[0]
+
+    def live(self, job_id: str) -> Live | None:
+        return self._live.get(job_id)
+
+    def events(self, job_id: str, index: int = 0) -> tuple[list[dict[str, Any]], int, bool]:
+        """The job's events after the first ``index``, the next index, and whether the job
+        has ended. A job of this process gives its live events; any other job (queued for
+        the workers, or of an earlier studio) one event from its store record."""
+        live = self._live.get(job_id)
+        if live is not None:
+            events = live.since(index)
+            return events, index + len(events), live.done.is_set() and not events
+        from inkmotion import store
+
+        record = store.get_job(job_id, self.settings.db_url)
+        if record is None:
+            return [{"type": "end", "status": "missing"}], index + 1, True
+        event: dict[str, Any] = {"type": "record", "status": record.status,
+                                 "step": record.step, "total": record.total,
+                                 "figures": record.losses or {}}
+        if record.finished:
+            event = {"type": "end", "status": record.status, "error": record.error}
+        return [event], index + 1, record.finished
+
+    def follow(self, job_id: str, poll_s: float = 0.1) -> Iterator[dict[str, Any]]:
+        """The job's events as they come, until it ends (blocking; for tests and scripts)."""
+        index, ended = 0, False
+        while not ended:
+            events, index, ended = self.events(job_id, index)
+            yield from events
+            if any(e.get("type") == "end" for e in events):
+                return
+            time.sleep(poll_s)
+
+    def close(self) -> None:
+        """Cancel what runs here and wait for the threads (each job leaves no artifacts)."""
+        from inkmotion import store
+
+        for live in list(self._live.values()):
+            live.cancel.set()
+        self._pool.shutdown(wait=True, cancel_futures=True)
+        for job_id, live in list(self._live.items()):
+            if not live.done.is_set():  # never started: not left queued with no runner
+                store.mark_cancelled(job_id, self.settings.db_url)
+
+
+def artifacts_of(settings: Settings, job_id: str) -> Path:
+    """The artifacts folder of job ``job_id`` (complete only once the job succeeded)."""
+    return settings.job_dir(job_id) / "artifacts"

@@ -1,0 +1,473 @@
+"""inkmotion studio: the checks of what the page sends (drawings, uploads, settings), and the
+real thing: ``inkmotion studio`` started as a subprocess on loopback, its API over HTTP and
+its page in headless Chromium through Selenium (drawing with synthetic pointer events,
+fitting, animating, cancelling, closing a tab, three tabs at once, a bad upload, sending
+the plan to the plotter)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+import zlib
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inkmotion.errors import InputError
+from inkmotion.inputs.gml import read_gml
+from inkmotion.studio.app import UserError, fit_params
+from inkmotion.studio.drawing import drawing_gml
+from inkmotion.studio.uploads import check_upload, safe_name
+
+pytest.importorskip("starlette", reason="Starlette is not installed")
+
+PNG = b"\x89PNG\r\n\x1a\n"
+MB = 2**20
+FAST = {"steps": 60}  # a short fit: the page's behaviour, not the fit's quality
+
+
+# -- a drawing from the page -----------------------------------------------------------------
+def _stroke(x0: float, y0: float, x1: float, y1: float, t0: float, n: int = 30) -> list:
+    return [[x0 + (x1 - x0) * k / (n - 1), y0 + (y1 - y0) * k / (n - 1), t0 + 8.0 * k, 0.4]
+            for k in range(n)]
+
+
+def test_a_drawing_becomes_a_gml_tag_with_increasing_times(tmp_path):
+    strokes = [_stroke(20, 30, 200, 40, 1000.0), _stroke(50, 100, 60, 300, 1600.0)]
+    strokes[0].insert(5, list(strokes[0][4]))  # a repeated time stamp: no motion, dropped
+    path = tmp_path / "d.gml"
+    path.write_text(drawing_gml({"width": 400, "height": 320, "strokes": strokes}))
+    traces = read_gml(str(path))
+    assert len(traces.strokes) == 2
+    times = traces.meta["t"]
+    assert all(np.all(np.diff(t) > 0) for t in times)
+    assert times[0][0] == pytest.approx(0.0) and times[1][0] == pytest.approx(0.6)
+    assert times[1][0] > times[0][-1]  # the pen lift's time is kept
+    # shape kept: the first stroke is nearly level, the second nearly upright
+    a, b = traces.strokes
+    assert abs(a[-1, 1] - a[0, 1]) < 0.1 * abs(a[-1, 0] - a[0, 0])
+    assert abs(b[-1, 0] - b[0, 0]) < 0.1 * abs(b[-1, 1] - b[0, 1])
+    assert "<pressure>0.400</pressure>" in path.read_text()
+
+
+@pytest.mark.parametrize("payload, words", [
+    ([], "not a JSON object"),
+    ({"width": 0, "height": 10, "strokes": []}, "no size or no strokes"),
+    ({"width": 10, "height": 10, "strokes": [[[1, 2, 3, 0.5]]]}, "no stroke of two points"),
+    ({"width": 10, "height": 10, "strokes": [[[1, "x", 3], [2, 2, 4]]]}, "not a finite"),
+    ({"width": 10, "height": 10, "strokes": [[[1, 2], [2, 2]]]}, "not [x, y, t, pressure]"),
+    ({"width": 10, "height": 10, "strokes": [[[1, 1, 0, 0]] * 2] * 501}, "more than 500"),
+])
+def test_a_bad_drawing_is_refused_in_one_sentence(payload, words):
+    with pytest.raises(InputError, match=None) as info:
+        drawing_gml(payload)
+    assert words in str(info.value) and str(info.value).count(". ") == 0
+
+
+# -- uploads and settings --------------------------------------------------------------------
+def _png_claiming(w: int, h: int) -> bytes:
+    """A PNG whose header says w × h pixels and whose data is cut short."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return len(data).to_bytes(4, "big") + body + zlib.crc32(body).to_bytes(4, "big")
+    ihdr = w.to_bytes(4, "big") + h.to_bytes(4, "big") + bytes([8, 0, 0, 0, 0])
+    return PNG + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64))
+
+
+@pytest.mark.parametrize("name, data, words", [
+    ("tag.exe", b"MZ", "not a drawing the studio reads"),
+    ("tag.gml", b"", "empty"),
+    ("tag.gml", b"x" * (2 * MB), "above the 1 MB upload limit"),
+    ("photo.png", b"GIF89a....", "not a PNG picture"),
+    ("huge.png", _png_claiming(30000, 30000), "900 megapixels, more than the 400"),
+    ("broken.png", PNG + b"\x00" * 30, "cannot be read"),
+    ("tag.svg", b"\x00\x01binary", "not a text file"),
+])
+def test_a_bad_upload_is_refused_in_one_sentence(name, data, words):
+    with pytest.raises(InputError) as info:
+        check_upload(name, data, 1 * MB)
+    assert words in str(info.value)
+
+
+def test_an_upload_name_never_becomes_a_path():
+    assert safe_name("../../etc/passwd.svg") == "passwd.svg"
+    assert safe_name("C:\\Users\\me\\my tag (1).GML") == "C_Users_me_my_tag_1.gml"
+    assert safe_name("...png") == "upload.png"
+    assert check_upload("my tag.gml", b"<gml/>", MB) == "my_tag.gml"
+
+
+@pytest.mark.parametrize("settings, words", [
+    ({"steps": 10}, "steps must be a number from 20"),
+    ({"lambda_smooth": "NaN"}, "lambda_smooth must be a number"),
+    ({"size": "big"}, "size must be a number"),
+    ({"varying_width": "yes"}, "varying_width is on or off"),
+    ({"targets": "many"}, "Targets are 'default', 'auto' or a number"),
+    ({"out": "/etc"}, "Unknown setting 'out'"),
+])
+def test_bad_settings_are_refused(settings, words):
+    with pytest.raises(UserError, match=None) as info:
+        fit_params(settings)
+    assert words in str(info.value)
+
+
+# -- the real server ---------------------------------------------------------------------------
+def _free_port() -> int:
+    from inkmotion.workers.local import free_port
+
+    return free_port()
+
+
+class Studio:
+    """``inkmotion studio`` in a subprocess, with its own data directory and job store."""
+
+    def __init__(self, root: Path, *extra: str) -> None:
+        self.root = root
+        self.port = _free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        env = {**os.environ, "INKMOTION_DATA_DIR": str(root),
+               "INKMOTION_DB_URL": f"sqlite:///{root}/jobs.db"}
+        env.pop("INKMOTION_BROKER_URL", None)
+        self.log = open(root / "studio.log", "w")  # noqa: SIM115 - closed in stop()
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "inkmotion", "studio", "--port", str(self.port), "--no-open",
+             "--slots", "2", *extra], env=env, stdout=self.log, stderr=subprocess.STDOUT,
+            start_new_session=True)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            try:
+                urllib.request.urlopen(self.url + "/static/studio.css", timeout=1).read()
+                return
+            except urllib.error.HTTPError:  # it answers (a token is asked for)
+                return
+            except (urllib.error.URLError, ConnectionError):
+                if self.proc.poll() is not None:
+                    break
+                time.sleep(0.2)
+        self.stop()
+        raise RuntimeError("the studio did not start: " + (root / "studio.log").read_text())
+
+    def request(self, method: str, path: str, body: object = None, *,
+                headers: dict | None = None) -> tuple[int, dict | bytes]:
+        data = None
+        headers = dict(headers or {})
+        if isinstance(body, bytes):
+            data = body
+            headers.setdefault("Content-Type", "application/octet-stream")
+        elif body is not None:
+            data = json.dumps(body).encode()
+            headers.setdefault("Content-Type", "application/json")
+        req = urllib.request.Request(self.url + path, data=data, method=method, headers=headers)
+        try:
+            with urllib.request.urlopen(req, timeout=60) as r:
+                raw, status, kind = r.read(), r.status, r.headers.get("content-type", "")
+        except urllib.error.HTTPError as exc:
+            raw, status, kind = exc.read(), exc.code, exc.headers.get("content-type", "")
+        return status, (json.loads(raw) if kind.startswith("application/json") else raw)
+
+    def events(self, job: str, timeout: float = 120) -> list[dict]:
+        out = []
+        with urllib.request.urlopen(f"{self.url}/api/jobs/{job}/events", timeout=timeout) as r:
+            for line in r:
+                if line.startswith(b"data: "):
+                    out.append(json.loads(line[6:]))
+                    if out[-1]["type"] == "end":
+                        break
+        return out
+
+    def record(self, job: str) -> object:
+        from inkmotion import store
+
+        return store.get_job(job, f"sqlite:///{self.root}/jobs.db")
+
+    def stop(self) -> None:
+        import signal
+
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGINT)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait()
+        self.log.close()
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory) -> Iterator[Studio]:
+    s = Studio(tmp_path_factory.mktemp("studio"))
+    yield s
+    s.stop()
+
+
+def test_a_fit_through_the_api_streams_progress_and_ends_with_its_motion(studio):
+    status, d = studio.request("POST", "/api/fits", {"input": {"text": "hi"}, "settings": FAST})
+    assert status == 200, d
+    job = d["job"]
+    events = studio.events(job)
+    kinds = [e["type"] for e in events]
+    assert kinds[0] == "queued" and "start" in kinds and kinds[-1] == "end", kinds
+    assert events[-1]["status"] == "succeeded"
+    steps = [e for e in events if e["type"] == "step"]
+    assert steps and steps[-1]["step"] == 60 and any("paths" in e for e in steps)
+    status, r = studio.request("GET", f"/api/jobs/{job}/result")
+    assert status == 200 and r["figures"]["moves"] == sum(len(p["targets"]) - 1
+                                                         for p in r["paths"])
+    for p in r["paths"]:  # the animation's timeline: increasing times, one speed each
+        assert np.all(np.diff(p["t"]) > 0) and len(p["speed"]) == len(p["t"]) == len(p["xy"])
+    status, plan = studio.request("GET", f"/api/jobs/{job}/files/plan.json")
+    assert status == 200 and plan["paths"]
+    record = studio.record(job)
+    assert record.status == "succeeded" and record.metrics["moves"] == r["figures"]["moves"]
+    assert (studio.root / "jobs" / job / "artifacts" / "report.json").is_file()
+
+
+def test_nothing_the_browser_sends_becomes_a_path(studio):
+    status, d = studio.request("POST", "/api/fits", {"input": {"text": "ok"}, "settings": FAST})
+    job = d["job"]
+    studio.events(job)
+    for name in ("..%2Fjob.log", "..%2F..%2Fjobs.db", "%2Fetc%2Fpasswd", "nope.json"):
+        status, body = studio.request("GET", f"/api/jobs/{job}/files/{name}")
+        assert status == 404, name
+    assert studio.request("GET", "/api/jobs/..%2F..%2Fx/result")[0] == 404
+    assert studio.request("GET", "/api/jobs/0123/events")[0] == 404
+    status, body = studio.request("POST", "/api/fits",
+                                  {"input": {"upload": "/etc/passwd"}, "settings": {}})
+    assert status == 400 and "upload is gone" in body["error"]
+    status, body = studio.request("POST", "/api/fits",
+                                  {"input": {"sample": "../../x"}, "settings": {}})
+    assert status == 400 and "sample" in body["error"].lower()
+
+
+def test_a_post_from_another_origin_or_not_json_is_refused(studio):
+    body = {"input": {"text": "x"}, "settings": FAST}
+    status, d = studio.request("POST", "/api/fits", body,
+                               headers={"Origin": "http://evil.example"})
+    assert status == 403 and "own page" in d["error"]
+    status, d = studio.request("POST", "/api/fits", b"input=x",
+                               headers={"Content-Type": "application/x-www-form-urlencoded"})
+    assert status == 415
+
+
+def test_an_upload_is_checked_before_any_job(studio):
+    status, d = studio.request("POST", "/api/uploads", b"not a png",
+                               headers={"X-Filename": "scan.png"})
+    assert status == 400 and d["error"].startswith("scan.png: its content is not a PNG")
+    from inkmotion.samples import path_of
+
+    data = Path(path_of("tempt-1")).read_bytes()
+    status, d = studio.request("POST", "/api/uploads", data, headers={"X-Filename": "t 1.gml"})
+    assert status == 200 and d["name"] == "t_1.gml"
+
+
+def test_a_cancelled_fit_leaves_nothing(studio):
+    status, d = studio.request("POST", "/api/fits",
+                               {"input": {"sample": "tempt-3"}, "settings": {"steps": 4000}})
+    job = d["job"]
+    with urllib.request.urlopen(f"{studio.url}/api/jobs/{job}/events", timeout=120) as r:
+        for line in r:
+            if line.startswith(b"data: ") and json.loads(line[6:])["type"] == "step":
+                break
+    assert studio.request("POST", f"/api/jobs/{job}/cancel", {})[1] == {"cancelled": True}
+    assert studio.events(job)[-1]["status"] == "cancelled"
+    assert studio.record(job).status == "cancelled"
+    job_dir = studio.root / "jobs" / job
+    assert not (job_dir / "artifacts").exists()
+    assert not list(job_dir.glob("artifacts.*"))  # no staging folder left either
+    assert studio.request("GET", f"/api/jobs/{job}/result")[0] == 409
+
+
+def test_a_plan_sent_to_the_plotter_gives_g_code(studio):
+    status, d = studio.request("POST", "/api/fits", {"input": {"text": "go"}, "settings": FAST})
+    fit = d["job"]
+    studio.events(fit)
+    status, d = studio.request("POST", f"/api/jobs/{fit}/send",
+                               {"kind": "plot", "paper": "A5", "machine": "marlin"})
+    assert status == 200, d
+    assert studio.events(d["job"])[-1]["status"] == "succeeded"
+    status, r = studio.request("GET", f"/api/jobs/{d['job']}/result")
+    assert r["figures"]["estimated_s"] > 0 and "plot.gcode" in r["files"]
+    status, gcode = studio.request("GET", f"/api/jobs/{d['job']}/files/plot.gcode")
+    assert b"G1" in gcode
+    status, d = studio.request("POST", f"/api/jobs/{fit}/send", {"kind": "plot", "paper": "B9"})
+    assert status == 400 and "paper is one of" in d["error"]
+
+
+def test_a_token_guards_a_studio_that_has_one(tmp_path):
+    s = Studio(tmp_path, "--token", "s3cret")
+    try:
+        status, d = s.request("GET", "/api/jobs")
+        assert status == 401 and "token" in d["error"]
+        req = urllib.request.Request(s.url + "/?token=s3cret")
+        with urllib.request.urlopen(req, timeout=10) as r:
+            cookie = r.headers["set-cookie"]
+        assert cookie.startswith("inkmotion_studio=s3cret") and "HttpOnly" in cookie
+        status, d = s.request("GET", "/api/jobs", headers={"Cookie": "inkmotion_studio=s3cret"})
+        assert status == 200 and d == {"jobs": []}
+        assert s.request("GET", "/api/jobs?token=wrong")[0] == 401
+    finally:
+        s.stop()
+
+
+def test_only_loopback_goes_without_a_token():
+    from inkmotion.cli.studio import is_loopback
+
+    assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
+    assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.5")
+
+
+# -- the page in a real browser ----------------------------------------------------------------
+@pytest.fixture(scope="module")
+def browser():
+    from inkmotion.gallery.browser import chromium, find_browser
+
+    pytest.importorskip("selenium", reason="Selenium is not installed (the test extra)")
+    if find_browser() is None:
+        pytest.skip("Chromium and ChromeDriver are not installed (make test installs them)")
+    with chromium(1300, 1000) as driver:
+        yield driver
+
+
+def _wait(driver, script: str, timeout: float = 120) -> object:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = driver.execute_script(script)
+        if value:
+            return value
+        time.sleep(0.2)
+    raise AssertionError(f"timed out waiting for: {script}; status: "
+                         + driver.execute_script("return document.getElementById('status')"
+                                                 ".textContent + ' / ' + document."
+                                                 "getElementById('message').textContent"))
+
+
+def _set(driver, element_id: str, value: str) -> None:
+    from selenium.webdriver.common.by import By
+
+    field = driver.find_element(By.ID, element_id)
+    field.clear()
+    field.send_keys(value)
+
+
+def test_a_drawing_made_with_pointer_events_is_fitted_and_animated(studio, browser):
+    from selenium.webdriver.common.actions.action_builder import ActionBuilder
+    from selenium.webdriver.common.actions.interaction import POINTER_PEN
+    from selenium.webdriver.common.actions.pointer_input import PointerInput
+    from selenium.webdriver.common.by import By
+
+    browser.get(studio.url + "/")
+    assert browser.execute_script("return performance.timing.domContentLoadedEventEnd - "
+                                  "performance.timing.navigationStart") < 1000
+    pad = browser.find_element(By.ID, "pad")
+    pen = PointerInput(POINTER_PEN, "pen")
+    actions = ActionBuilder(browser, mouse=pen, duration=20)
+    # an "L" and a separate bar, each stroke drawn in 20 ms steps
+    for stroke in ([(-150, -100), (-150, 60), (-40, 60)], [(40, -100), (160, -60)]):
+        actions.pointer_action.move_to(pad, *stroke[0]).pointer_down(pressure=0.6)
+        for a, b in zip(stroke, stroke[1:], strict=False):
+            for k in range(1, 11):
+                x = a[0] + (b[0] - a[0]) * k / 10
+                y = a[1] + (b[1] - a[1]) * k / 10
+                actions.pointer_action.move_to(pad, int(x), int(y), pressure=0.6)
+        actions.pointer_action.pointer_up()
+    actions.perform()
+    assert browser.execute_script("return window.studio.strokes.length") == 2
+    _set(browser, "steps", "150")
+    browser.find_element(By.ID, "fit").click()
+    _wait(browser, "return window.studio.result")
+    assert browser.execute_script("return window.studio.firstEventMs") < 1000
+    job = browser.execute_script("return window.studio.job")
+    assert browser.current_url.endswith("/job/" + job)
+    _wait(browser, "return window.studio.frames > 20")
+    # the stored input: a GML tag whose times increase, fitted as well as a recorded one
+    traces = read_gml(str(next((studio.root / "jobs" / job / "input").rglob("*.gml"))))
+    assert len(traces.strokes) == 2
+    assert all(np.all(np.diff(t) > 0) for t in traces.meta["t"])
+    figures = browser.execute_script("return window.studio.result.figures")
+    assert figures["chamfer_mean_px"] < 1.0 and figures["quality"] == "good", figures
+    words = browser.find_element(By.ID, "figures").text
+    assert "sub-movements" in words and "Chamfer" in words
+    assert browser.find_element(By.ID, "recorded").is_displayed()  # it had times
+
+
+def test_three_tabs_fit_at_once_each_its_own(studio, browser):
+    from selenium.webdriver.common.by import By
+
+    words = ["one", "two", "six"]
+    handles = []
+    for i, word in enumerate(words):
+        if i:
+            browser.switch_to.new_window("tab")
+        browser.get(studio.url + "/")
+        browser.find_element(By.ID, "tab-word").click()
+        _set(browser, "word", word)
+        _set(browser, "steps", "80")
+        browser.find_element(By.ID, "fit").click()
+        handles.append(browser.current_window_handle)
+    labels = []
+    for handle in handles:
+        browser.switch_to.window(handle)
+        _wait(browser, "return window.studio.result", 180)
+        labels.append(browser.execute_script("return window.studio.result.label"))
+    assert labels == [f"text:{w}" for w in words]
+    for handle in handles[1:]:
+        browser.switch_to.window(handle)
+        browser.close()
+    browser.switch_to.window(handles[0])
+
+
+def test_a_bad_upload_is_refused_on_the_page(studio, browser, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    fake = tmp_path / "scan.png"
+    fake.write_text("this is not a picture")
+    browser.get(studio.url + "/")
+    before = studio.request("GET", "/api/jobs")[1]["jobs"]
+    browser.find_element(By.ID, "tab-file").click()
+    browser.find_element(By.ID, "file").send_keys(str(fake))
+    message = _wait(browser, "return document.getElementById('message').textContent", 20)
+    assert message.startswith("scan.png: its content is not a PNG picture")
+    browser.find_element(By.ID, "fit").click()
+    assert "Drop or pick a file first" in browser.find_element(By.ID, "message").text
+    assert studio.request("GET", "/api/jobs")[1]["jobs"] == before
+
+
+def test_cancel_on_the_page_and_a_closed_tab(studio, browser):
+    from selenium.webdriver.common.by import By
+
+    browser.get(studio.url + "/")
+    browser.find_element(By.ID, "tab-sample").click()
+    _set(browser, "steps", "4000")
+    browser.find_element(By.ID, "fit").click()
+    _wait(browser, "return document.getElementById('status').textContent"
+                   ".startsWith('Fitting: step')", 60)
+    job = browser.execute_script("return window.studio.job")
+    browser.find_element(By.ID, "cancel").click()
+    _wait(browser, "return document.getElementById('status').textContent"
+                   ".startsWith('Cancelled')", 60)
+    assert studio.record(job).status == "cancelled"
+    assert not (studio.root / "jobs" / job / "artifacts").exists()
+    # a tab closed mid-fit: the job goes on and ends complete
+    browser.switch_to.new_window("tab")
+    browser.get(studio.url + "/")
+    browser.find_element(By.ID, "tab-word").click()
+    _set(browser, "word", "bye")
+    _set(browser, "steps", "80")
+    browser.find_element(By.ID, "fit").click()
+    _wait(browser, "return window.studio.job", 30)
+    job = browser.execute_script("return window.studio.job")
+    browser.close()
+    browser.switch_to.window(browser.window_handles[0])
+    deadline = time.monotonic() + 120
+    while studio.record(job).status != "succeeded" and time.monotonic() < deadline:
+        time.sleep(0.3)
+    assert studio.record(job).status == "succeeded"
+    assert (studio.root / "jobs" / job / "artifacts" / "plan.json").is_file()
+    browser.get(studio.url + "/jobs")
+    _wait(browser, f"return document.querySelector(\"tr[data-id='{job}']\")", 10)
