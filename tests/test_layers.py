@@ -17,10 +17,12 @@
   the gallery (it may use the workers).
 - gallery: ``inkmotion.gallery``, a tool of the CLI — anything but the CLI, the workers and
   the benchmarks.
+- studio: ``inkmotion.studio``, a tool of the CLI — anything but the CLI, the benchmarks
+  and the gallery (it runs jobs here or sends them to the workers).
 - cli: ``inkmotion.cli``, the top — anything; nothing imports it.
 
-In short, imports point down the list; the benchmarks and the gallery are imported by the
-CLI only. Checked: every ``import`` and ``from … import`` in every module under
+In short, imports point down the list; the benchmarks, the gallery and the studio are
+imported by the CLI only. Checked: every ``import`` and ``from … import`` in every module under
 ``framework/``, ``plugins/`` and ``workers/``, those inside functions included (they run
 too, later), those under ``if TYPE_CHECKING:`` not (they never run). Outside the check:
 ``inkmotion/__init__.py`` (the package's lazy facade: it imports only ``inkmotion.lazy``
@@ -73,7 +75,8 @@ LAYERS: dict[str, tuple[tuple[str, ...], frozenset[str], str]] = {
                 "plugins import the foundation, engines, plugin host, jobs and kinds"),
     "workers": (("workers",), frozenset({"foundation", "engines", "plugin host", "jobs",
                                          "kinds", "plugins", "workers"}),
-                "the workers import anything but the CLI and its tools (benchmarks, gallery)"),
+                "the workers import anything but the CLI and its tools (benchmarks, gallery, "
+                "studio)"),
     "benchmarks": (("benchmarks",), frozenset({"foundation", "engines", "plugin host", "jobs",
                                                "kinds", "plugins", "workers", "benchmarks"}),
                    "the benchmarks, a tool of the CLI, import anything but the CLI and the "
@@ -82,8 +85,13 @@ LAYERS: dict[str, tuple[tuple[str, ...], frozenset[str], str]] = {
                                          "kinds", "plugins", "gallery"}),
                 "the gallery, a tool of the CLI, imports anything but the CLI, the workers "
                 "and the benchmarks"),
+    "studio": (("studio",), frozenset({"foundation", "engines", "plugin host", "jobs",
+                                       "kinds", "plugins", "workers", "studio"}),
+               "the studio, a tool of the CLI, imports anything but the CLI, the benchmarks "
+               "and the gallery"),
     "cli": (("cli",), frozenset({"foundation", "engines", "plugin host", "jobs", "kinds",
-                                 "plugins", "workers", "benchmarks", "gallery", "cli"}),
+                                 "plugins", "workers", "benchmarks", "gallery", "studio",
+                                 "cli"}),
             "the CLI imports anything; nothing imports it"),
 }
 LAYER_OF = {package: layer for layer, (packages, _, _) in LAYERS.items()

@@ -58,6 +58,8 @@ NOT_RUN: tuple[tuple[str, str], ...] = (
     (r"^inkmotion (robot teach|run draw)\b", "needs a Franka at the address (tests/"
                                              "test_draw.py runs both against franky-sim)"),
     (r"^inkmotion gallery serve\b", "serves until stopped (tests/test_gallery_browser.py)"),
+    (r"^inkmotion studio\b", "serves until stopped and opens a browser (tests/test_studio.py "
+                             "drives it in Chromium)"),
     (r"--device cuda\b", "needs a GPU"),
     (r"^inkmotion bench$", "times the whole speed suite, minutes "
                            "(tests/test_bench_figures.py runs its parts)"),

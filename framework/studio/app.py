@@ -30,6 +30,7 @@ import contextlib
 import json
 import re
 import secrets
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -112,12 +113,23 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
     ]
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> Any:
+        threading.Thread(target=_warm_up, name="studio-warm-up", daemon=True).start()
         yield
         await asyncio.to_thread(studio.runner.close)  # stops what runs here, cleanly
 
     app = Starlette(routes=routes, lifespan=lifespan)
     app.state.studio = studio
     return _guarded(app, studio)
+
+
+def _warm_up() -> None:
+    """What this process does at a page's first Fit and first result, done at start: the
+    spec's checks (the plugins, the kinds) and the motion's sampling (torch)."""
+    from inkmotion.jobs.kind import resolve
+    from inkmotion.studio.motion import warm_up
+
+    resolve(JobSpec(kind="fit", inputs={"drawing": "text:a"}))
+    warm_up()
 
 
 # -- guards ---------------------------------------------------------------------------------

@@ -70,6 +70,13 @@ def motion_payload(artifacts: Path) -> dict[str, Any]:
     return payload
 
 
+def warm_up() -> None:
+    """Import what :func:`motion_payload` needs (torch: about 2 s), ahead of the first
+    result; run in a thread when the studio starts."""
+    import inkmotion.outputs.sampling  # noqa: F401
+    import inkmotion.sigma_lognormal.speed  # noqa: F401
+
+
 def _round(a: Any, digits: int) -> list:
     import numpy as np
 
