@@ -127,17 +127,22 @@ def _free_port() -> int:
 class Studio:
     """``inkmotion studio`` in a subprocess, with its own data directory and job store."""
 
-    def __init__(self, root: Path, *extra: str) -> None:
+    def __init__(self, root: Path, *extra: str, env: dict[str, str] | None = None,
+                 slots: int = 1) -> None:
         self.root = root
         self.port = _free_port()
         self.url = f"http://127.0.0.1:{self.port}"
-        env = {**os.environ, "INKMOTION_DATA_DIR": str(root),
-               "INKMOTION_DB_URL": f"sqlite:///{root}/jobs.db"}
-        env.pop("INKMOTION_BROKER_URL", None)
+        self.db_url = f"sqlite:///{root}/jobs.db"
+        if env is None:
+            env = {**os.environ, "INKMOTION_DATA_DIR": str(root), "INKMOTION_DB_URL": self.db_url}
+            env.pop("INKMOTION_BROKER_URL", None)
+        else:
+            env = {**os.environ, **env}
+            self.db_url = env["INKMOTION_DB_URL"]
         self.log = open(root / "studio.log", "w")  # noqa: SIM115 - closed in stop()
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "inkmotion", "studio", "--port", str(self.port), "--no-open",
-             "--slots", "2", *extra], env=env, stdout=self.log, stderr=subprocess.STDOUT,
+             "--slots", str(slots), *extra], env=env, stdout=self.log, stderr=subprocess.STDOUT,
             start_new_session=True)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
@@ -146,7 +151,7 @@ class Studio:
                 return
             except urllib.error.HTTPError:  # it answers (a token is asked for)
                 return
-            except (urllib.error.URLError, ConnectionError):
+            except OSError:  # not listening yet, or too busy starting to answer in 1 s
                 if self.proc.poll() is not None:
                     break
                 time.sleep(0.2)
@@ -184,13 +189,13 @@ class Studio:
     def record(self, job: str) -> object:
         from inkmotion import store
 
-        return store.get_job(job, f"sqlite:///{self.root}/jobs.db")
+        return store.get_job(job, self.db_url)
 
     def stop(self) -> None:
         import signal
 
         if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGINT)
+            os.kill(self.proc.pid, signal.SIGINT)  # Ctrl-C: the studio ends its jobs
             try:
                 self.proc.wait(30)
             except subprocess.TimeoutExpired:
@@ -201,7 +206,7 @@ class Studio:
 
 @pytest.fixture(scope="module")
 def studio(tmp_path_factory) -> Iterator[Studio]:
-    s = Studio(tmp_path_factory.mktemp("studio"))
+    s = Studio(tmp_path_factory.mktemp("studio"), slots=2)
     yield s
     s.stop()
 
@@ -311,6 +316,65 @@ def test_a_token_guards_a_studio_that_has_one(tmp_path):
         status, d = s.request("GET", "/api/jobs", headers={"Cookie": "inkmotion_studio=s3cret"})
         assert status == 200 and d == {"jobs": []}
         assert s.request("GET", "/api/jobs?token=wrong")[0] == 401
+    finally:
+        s.stop()
+
+
+def test_a_picture_uploaded_is_traced_and_fitted(studio):
+    from inkmotion.samples import path_of
+
+    data = Path(path_of("brush-scan")).read_bytes()
+    status, d = studio.request("POST", "/api/uploads", data, headers={"X-Filename": "scan.png"})
+    assert status == 200, d
+    status, d = studio.request("POST", "/api/fits",
+                               {"input": {"upload": d["upload"]}, "settings": FAST})
+    assert studio.events(d["job"])[-1]["status"] == "succeeded"
+    status, r = studio.request("GET", f"/api/jobs/{d['job']}/result")
+    assert r["extraction"]["strokes"] >= 1 and r["paths"]
+
+
+def test_a_recording_opens_in_rerun_s_web_viewer(studio):
+    status, d = studio.request("POST", "/api/fits", {"input": {"text": "rr"}, "settings": FAST})
+    job = d["job"]
+    studio.events(job)
+    status, d = studio.request("POST", f"/api/jobs/{job}/rerun", {})
+    assert status == 200, d
+    assert d["url"].startswith("http://127.0.0.1:") and "rerun%2Bhttp" in d["url"]
+    with urllib.request.urlopen(d["url"], timeout=10) as r:
+        assert r.status == 200 and b"<html" in r.read().lower()
+    assert studio.request("POST", "/api/jobs/" + "0" * 32 + "/rerun", {})[0] == 404
+
+
+def test_ctrl_c_ends_the_studio_s_jobs_cleanly(tmp_path):
+    s = Studio(tmp_path)
+    try:
+        status, d = s.request("POST", "/api/fits",
+                              {"input": {"sample": "tempt-3"}, "settings": {"steps": 4000}})
+        job = d["job"]
+        with urllib.request.urlopen(f"{s.url}/api/jobs/{job}/events", timeout=120) as r:
+            for line in r:
+                if line.startswith(b"data: ") and json.loads(line[6:])["type"] == "step":
+                    break
+    finally:
+        s.stop()
+    assert s.proc.returncode is not None
+    assert s.record(job).status == "cancelled"
+    assert not (tmp_path / "jobs" / job / "artifacts").exists()
+    assert not list((tmp_path / "jobs" / job).glob("artifacts.*"))
+
+
+@pytest.mark.services
+def test_with_workers_a_fit_goes_through_the_queue(service_env, workers, tmp_path):
+    s = Studio(tmp_path, "--workers", env=service_env)
+    try:
+        status, d = s.request("POST", "/api/fits", {"input": {"text": "q"}, "settings": FAST})
+        assert status == 200, d
+        events = s.events(d["job"], timeout=180)
+        assert events[-1]["status"] == "succeeded", events[-1]
+        record = s.record(d["job"])
+        assert record.worker_host and record.worker_host != "" and record.status == "succeeded"
+        status, r = s.request("GET", f"/api/jobs/{d['job']}/result")
+        assert status == 200 and r["paths"]
     finally:
         s.stop()
 

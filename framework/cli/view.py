@@ -8,7 +8,6 @@ imports torch or the rerun SDK.
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -22,12 +21,6 @@ from inkmotion.cli.jobs import resolve_job
 from inkmotion.errors import InkmotionError, SpecError
 
 out = Console(emoji=False)  # paths are printed as they are
-
-
-def _rerun_binary() -> str | None:
-    """The ``rerun`` viewer beside this Python (a virtualenv), else on PATH, else None."""
-    here = Path(sys.executable).parent / "rerun"
-    return str(here) if here.is_file() else shutil.which("rerun")
 
 
 def has_display() -> bool:
@@ -75,7 +68,9 @@ def view_cmd(
         rrd = recording_path(target)
     except InkmotionError as exc:
         fail(exc)
-    binary = _rerun_binary()
+    from inkmotion.recording import rerun_binary
+
+    binary = rerun_binary()
     command = f"{binary or 'rerun'} {rrd}"
     if print_only or not has_display() or binary is None:
         why = "" if print_only else ("no display here; " if binary else

@@ -14,6 +14,7 @@ Pages: ``/`` (draw, drop or pick a drawing; fit it; watch it move; send it on), 
 ``GET  /api/jobs/ID/files/NAME``          one of its artifacts (a download)
 ``POST /api/jobs/ID/send``                ``{"kind": "plot"|"simulate"|"draw", ...}``: a job
                                           of that kind on the fit's plan.json
+``POST /api/jobs/ID/rerun``               its recording in rerun's web viewer (:mod:`.viewer`)
 ========================================  ================================================
 
 Safety: every error the user caused is a 4xx with ``{"error": one sentence}``; job ids are
@@ -46,6 +47,7 @@ from inkmotion.errors import InkmotionError
 from inkmotion.jobs.spec import JobSpec
 from inkmotion.settings import Settings
 from inkmotion.studio.runner import Runner, artifacts_of
+from inkmotion.studio.viewer import RerunViewer
 
 HERE = Path(__file__).parent
 TOKEN_COOKIE = "inkmotion_studio"
@@ -81,6 +83,7 @@ class Studio:
     runner: Runner
     token: str | None = None
     uploads: dict[str, Path] = field(default_factory=dict)
+    viewer: RerunViewer = field(default_factory=RerunViewer)
 
     @property
     def upload_dir(self) -> Path:
@@ -109,12 +112,14 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
         Route("/api/jobs/{job_id}/result", _api(studio, result)),
         Route("/api/jobs/{job_id}/files/{name}", _api(studio, download)),
         Route("/api/jobs/{job_id}/send", _api(studio, send), methods=["POST"]),
+        Route("/api/jobs/{job_id}/rerun", _api(studio, rerun_viewer), methods=["POST"]),
         Mount("/static", StaticFiles(directory=str(HERE / "static")), name="static"),
     ]
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> Any:
         threading.Thread(target=_warm_up, name="studio-warm-up", daemon=True).start()
         yield
+        studio.viewer.close()
         await asyncio.to_thread(studio.runner.close)  # stops what runs here, cleanly
 
     app = Starlette(routes=routes, lifespan=lifespan)
@@ -428,3 +433,14 @@ async def download(studio: Studio, request: Request) -> Response:
     return FileResponse(files[name], filename=None if inline else f"{job_id[:8]}-{name}",
                         content_disposition_type="inline" if inline else "attachment")
 
+
+async def rerun_viewer(studio: Studio, request: Request) -> Response:
+    """The job's recording.rrd served by rerun's web viewer; its address."""
+    from inkmotion.recording import RECORDING_NAME
+
+    job_id = _job_id(request.path_params["job_id"])
+    recording = artifacts_of(studio.settings, job_id) / RECORDING_NAME
+    if not recording.is_file():
+        raise UserError("This job has no rerun recording (yet).", 404)
+    url = await asyncio.to_thread(studio.viewer.open, recording)
+    return JSONResponse({"url": url})

@@ -1,4 +1,4 @@
-"""The studio's jobs: run here in threads, or queued for the workers; followed live.
+"""The studio's jobs: run here in worker processes, or queued for the workers; followed live.
 
 Every job the studio starts is a row of the job store (:mod:`inkmotion.store`) with its
 folder under the data directory (``<data>/jobs/<id>/input`` and ``artifacts``), exactly as
@@ -32,7 +32,7 @@ import socket
 import threading
 import time
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -138,10 +138,23 @@ def _finite(v: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
+def start_job_process() -> None:
+    """A job process's start: Ctrl-C is the studio's to handle (it cancels the jobs, which
+    then end cleanly, recorded as cancelled), and :func:`warm_up`."""
+    _ignore_ctrl_c()
+    warm_up()
+
+
+def _ignore_ctrl_c() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def warm_up() -> None:
     """Import what a job needs (torch, the plugins, the fit, rerun: about 3 s on a laptop
     CPU) and compile skan's graph code (about 3 s more, paid once per process) so that the
-    first Fit pressed shows progress at once; run in a thread at start."""
+    first Fit pressed shows progress at once."""
     import numpy as np
     import rerun  # noqa: F401
     import torch  # noqa: F401
@@ -173,14 +186,22 @@ class Runner:
         self.settings = settings
         self.workers = workers
         self.slots = slots or default_slots(default_threads())
-        # one process per slot (spawned once, warmed up): fits in threads of one process
-        # share its interpreter lock and ran 1.9-2.0x slower two at a time (measured)
-        context = multiprocessing.get_context("spawn")
-        self._manager = context.Manager()
-        self._pool = ProcessPoolExecutor(self.slots, mp_context=context, initializer=warm_up)
-        for _ in range(self.slots):  # start them now, not at the first Fit
-            self._pool.submit(_nothing)
+        self._manager: Any = None
+        self._pool: ProcessPoolExecutor | None = None
+        if not workers:
+            # one process per slot (spawned once, warmed up): fits in threads of one
+            # process share its interpreter lock and ran 1.9-2.0x slower two at a time
+            from multiprocessing.managers import SyncManager
+
+            context = multiprocessing.get_context("spawn")
+            self._manager = SyncManager(ctx=context)
+            self._manager.start(_ignore_ctrl_c)  # it outlives the jobs it carries events for
+            self._pool = ProcessPoolExecutor(self.slots, mp_context=context,
+                                             initializer=start_job_process)
+            for _ in range(self.slots):  # start them now, not at the first Fit
+                self._pool.submit(_nothing)
         self._live: dict[str, Live] = {}
+        self._futures: dict[str, Future] = {}
         self._lock = threading.Lock()
         self.host = socket.gethostname()
 
@@ -218,9 +239,11 @@ class Runner:
         live.emit({"type": "queued"})
         with self._lock:
             self._live[job_id] = live
+        assert self._pool is not None and self._manager is not None
         queue, cancel = self._manager.Queue(), self._manager.Event()
         live.remote_cancel = cancel
-        self._pool.submit(run_here, self.settings, self.host, job_id, stored, queue, cancel)
+        self._futures[job_id] = self._pool.submit(run_here, self.settings, self.host, job_id,
+                                                  stored, queue, cancel)
         threading.Thread(target=_drain, args=(queue, live), name=f"studio-{job_id[:8]}",
                          daemon=True).start()
         return job_id
@@ -279,20 +302,27 @@ class Runner:
             time.sleep(poll_s)
 
     def close(self) -> None:
-        """Cancel what runs here and wait for the threads (each job leaves no artifacts)."""
+        """Cancel what runs here and wait for its processes: a running job stops at its
+        next step and leaves no artifacts, a waiting one never starts; both are recorded
+        as cancelled."""
         from inkmotion import store
 
         for live in list(self._live.values()):
             live.cancel.set()
             if live.remote_cancel is not None:
                 live.remote_cancel.set()
+        if self._pool is None:
+            return
         self._pool.shutdown(wait=True, cancel_futures=True)
-        for live in self._live.values():
-            live.done.wait(5)  # the last events drained
-        self._manager.shutdown()
         for job_id, live in list(self._live.items()):
-            if not live.done.is_set():  # never started: not left queued with no runner
+            future = self._futures.get(job_id)
+            if future is not None and future.cancelled():  # never started: not left queued
                 store.mark_cancelled(job_id, self.settings.db_url)
+                live.emit({"type": "end", "status": "cancelled"})
+                live.done.set()
+            else:
+                live.done.wait(5)  # its last events drained
+        self._manager.shutdown()
 
 
 def run_here(settings: Settings, host: str, job_id: str, spec: JobSpec, queue: Any,

@@ -253,6 +253,8 @@
       var n = p.t.length, i;
       for (i = 1; i < n && p.t[i] <= local; i++) {
         vctx.strokeStyle = speedColour(p.speed[i], r.peak_speed);
+        // a 2.5D plan (varying width): the stroke is as wide as its radius says
+        vctx.lineWidth = p.radius ? Math.max(1, 2 * p.radius[i] * tf.s) : 2.5;
         vctx.beginPath();
         vctx.moveTo(tf.ox + tf.s * p.xy[i - 1][0], tf.oy + tf.s * p.xy[i - 1][1]);
         vctx.lineTo(tf.ox + tf.s * p.xy[i][0], tf.oy + tf.s * p.xy[i][1]);
@@ -371,6 +373,16 @@
       var wanted = ["plan.json", "drawing.svg", "trajectory.csv", "overlay.png", "recording.rrd", "job.json"];
       $("downloads").innerHTML = "Download: " + wanted.filter(function (n) { return r.files.indexOf(n) >= 0; })
         .map(function (n) { return "<a class='download' href='/api/jobs/" + job + "/files/" + n + "'>" + esc(n) + "</a>"; }).join(" ");
+      if (r.files.indexOf("recording.rrd") >= 0) {
+        $("downloads").insertAdjacentHTML("beforeend", " <button type='button' id='open-rerun'>Open in rerun's viewer</button>");
+        $("open-rerun").addEventListener("click", function () {
+          var tab = window.open("about:blank", "_blank");
+          api("POST", "/api/jobs/" + job + "/rerun", {}).then(function (d) {
+            state.rerunUrl = d.url;
+            if (tab) { tab.location = d.url; }
+          }).catch(function (err) { if (tab) { tab.close(); } say(err.message, true); });
+        });
+      }
       $("send").classList.remove("disabled-block");
       $("play").disabled = false;
       drawMotion(0);

@@ -1,0 +1,78 @@
+"""A job's rerun recording in rerun's own web viewer, served by the ``rerun`` binary.
+
+``rerun --serve-web RECORDING`` hosts the viewer over HTTP and the recording over gRPC, both
+on loopback and on ports picked free here; the page opens the viewer's address, which names
+the gRPC one. One viewer at a time: opening another recording stops the last, and so does
+the studio's end. The viewer is reachable from this machine only (its ports listen on
+loopback whatever the studio's ``--host``); elsewhere, download recording.rrd.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import threading
+import time
+import urllib.parse
+import urllib.request
+from pathlib import Path
+
+from inkmotion.errors import ServiceError
+
+#: seconds the viewer may take to answer over HTTP
+START_TIMEOUT_S = 20.0
+
+
+class RerunViewer:
+    """The one ``rerun --serve-web`` process of the studio (module docstring)."""
+
+    def __init__(self) -> None:
+        self._proc: subprocess.Popen | None = None
+        self._lock = threading.Lock()
+
+    def open(self, recording: Path) -> str:
+        """Serve ``recording``; the viewer's address. :class:`ServiceError` (one sentence)
+        when the binary is missing or does not answer."""
+        from inkmotion.recording import rerun_binary
+        from inkmotion.workers.local import HOST, free_port
+
+        binary = rerun_binary()
+        if binary is None:
+            raise ServiceError("The rerun viewer is not installed beside inkmotion; "
+                               "`pip install rerun-sdk` gives it, or download recording.rrd.")
+        with self._lock:
+            self.close()
+            grpc, web = free_port(), free_port()
+            env = {**os.environ, "RERUN_ANALYTICS": "0"}
+            self._proc = subprocess.Popen(
+                [binary, "--serve-web", "--bind", HOST, "--port", str(grpc),
+                 "--web-viewer-port", str(web), str(recording)],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+                start_new_session=True)
+            url = f"http://{HOST}:{web}/"
+            deadline = time.monotonic() + START_TIMEOUT_S
+            while time.monotonic() < deadline:
+                if self._proc.poll() is not None:
+                    break
+                try:
+                    urllib.request.urlopen(url, timeout=1).close()
+                    source = urllib.parse.quote(f"rerun+http://{HOST}:{grpc}/proxy", safe="")
+                    return f"{url}?url={source}"
+                except OSError:
+                    time.sleep(0.2)
+            self.close()
+            raise ServiceError("The rerun web viewer did not start; open recording.rrd with "
+                               "`inkmotion view` instead.")
+
+    def close(self) -> None:
+        """Stop the viewer (its whole process group), if one runs."""
+        proc, self._proc = self._proc, None
+        if proc is None or proc.poll() is not None:
+            return
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
