@@ -186,6 +186,16 @@ class Studio:
                         break
         return out
 
+    def start_long_fit(self) -> str:
+        """A fit of 4000 steps, returned once it runs (its first step came)."""
+        status, d = self.request("POST", "/api/fits",
+                                 {"input": {"sample": "tempt-3"}, "settings": {"steps": 4000}})
+        with urllib.request.urlopen(f"{self.url}/api/jobs/{d['job']}/events", timeout=120) as r:
+            for line in r:
+                if line.startswith(b"data: ") and json.loads(line[6:])["type"] == "step":
+                    break
+        return d["job"]
+
     def record(self, job: str) -> object:
         from inkmotion import store
 
@@ -272,13 +282,7 @@ def test_an_upload_is_checked_before_any_job(studio):
 
 
 def test_a_cancelled_fit_leaves_nothing(studio):
-    status, d = studio.request("POST", "/api/fits",
-                               {"input": {"sample": "tempt-3"}, "settings": {"steps": 4000}})
-    job = d["job"]
-    with urllib.request.urlopen(f"{studio.url}/api/jobs/{job}/events", timeout=120) as r:
-        for line in r:
-            if line.startswith(b"data: ") and json.loads(line[6:])["type"] == "step":
-                break
+    job = studio.start_long_fit()
     assert studio.request("POST", f"/api/jobs/{job}/cancel", {})[1] == {"cancelled": True}
     assert studio.events(job)[-1]["status"] == "cancelled"
     assert studio.record(job).status == "cancelled"
@@ -302,6 +306,17 @@ def test_a_plan_sent_to_the_plotter_gives_g_code(studio):
     assert b"G1" in gcode
     status, d = studio.request("POST", f"/api/jobs/{fit}/send", {"kind": "plot", "paper": "B9"})
     assert status == 400 and "paper is one of" in d["error"]
+    status, d = studio.request("POST", f"/api/jobs/{fit}/send",
+                               {"kind": "draw", "robot": "a b; rm -rf /"})
+    assert status == 400 and "robot's address" in d["error"]
+    status, d = studio.request("POST", f"/api/jobs/{fit}/send",  # no robot listens there
+                               {"kind": "draw", "robot": "127.0.0.1", "dry_run": True})
+    end = studio.events(d["job"])[-1]
+    assert end["status"] == "failed" and end["error"].startswith("No Franka robot answered")
+    status, d = studio.request("POST", f"/api/jobs/{fit}/send", {"kind": "simulate"})
+    assert studio.events(d["job"])[-1]["status"] == "succeeded"
+    status, r = studio.request("GET", f"/api/jobs/{d['job']}/result")
+    assert "side_by_side.png" in r["files"]
 
 
 def test_a_token_guards_a_studio_that_has_one(tmp_path):
@@ -348,13 +363,7 @@ def test_a_recording_opens_in_rerun_s_web_viewer(studio):
 def test_ctrl_c_ends_the_studio_s_jobs_cleanly(tmp_path):
     s = Studio(tmp_path)
     try:
-        status, d = s.request("POST", "/api/fits",
-                              {"input": {"sample": "tempt-3"}, "settings": {"steps": 4000}})
-        job = d["job"]
-        with urllib.request.urlopen(f"{s.url}/api/jobs/{job}/events", timeout=120) as r:
-            for line in r:
-                if line.startswith(b"data: ") and json.loads(line[6:])["type"] == "step":
-                    break
+        job = s.start_long_fit()
     finally:
         s.stop()
     assert s.proc.returncode is not None

@@ -61,8 +61,9 @@ FIT_SETTINGS: dict[str, tuple[type, float, float]] = {
 #: the kinds a fit's plan can be sent to, and the settings each takes from the page
 SEND_KINDS: dict[str, tuple[str, ...]] = {
     "plot": ("paper", "machine", "orientation", "margin"),
-    "simulate": (), "draw": (),
+    "simulate": (), "draw": ("robot", "dry_run"),
 }
+_HOST = re.compile(r"[A-Za-z0-9.:-]{1,253}")
 SEND_CHOICES = {"paper": ("A5", "A4", "A3", "letter"), "machine": ("grbl", "marlin", "klipper"),
                 "orientation": ("auto", "portrait", "landscape")}
 
@@ -349,13 +350,25 @@ async def send(studio: Studio, request: Request) -> Response:
     params = {}
     for name in SEND_KINDS[kind]:
         if name in body:
-            value = str(body[name])
-            if name in SEND_CHOICES and value not in SEND_CHOICES[name]:
-                raise UserError(f"{name} is one of {', '.join(SEND_CHOICES[name])}.")
-            params[name] = _setting(name, value, float, 0, 100) if name == "margin" else value
+            params[name] = _send_setting(name, body[name])
     spec = JobSpec(kind=kind, inputs={"plan": str(plan)}, params=params)
     new = await asyncio.to_thread(studio.runner.start, spec)
     return JSONResponse({"job": new, "kind": kind})
+
+
+def _send_setting(name: str, value: Any) -> Any:
+    """One setting of a plot or draw job from the page, checked."""
+    if name == "margin":
+        return _setting(name, value, float, 0, 100)
+    if name == "dry_run":
+        return _setting(name, value, bool, 0, 1)
+    text = str(value).strip()
+    if name in SEND_CHOICES and text not in SEND_CHOICES[name]:
+        raise UserError(f"{name} is one of {', '.join(SEND_CHOICES[name])}.")
+    if name == "robot" and not _HOST.fullmatch(text):
+        raise UserError("Give the robot's address: the FCI's hostname or IP, e.g. "
+                        "172.16.0.2.")
+    return text
 
 
 # -- following jobs -------------------------------------------------------------------------

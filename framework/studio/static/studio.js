@@ -393,6 +393,7 @@
     if (!state.result) { say("Fit a drawing first.", true); return; }
     var body = {kind: kind};
     if (kind === "plot") { body.paper = $("paper").value; body.machine = $("machine").value; }
+    if (kind === "draw") { body.robot = $("robot").value; body.dry_run = $("dry-run").checked; }
     var box = document.createElement("div");
     box.className = "sent"; box.id = "sent-" + kind;
     var old = $("sent-" + kind); if (old) { old.remove(); }
@@ -429,6 +430,9 @@
       }
       html += "<p>" + link("plot.gcode", "G-code (plot.gcode)") + link("plot.svg") + link("feed.png") + "</p>";
     } else {
+      if (r.files.indexOf("side_by_side.png") >= 0) {
+        html += "<img class='paper' alt='The plan and what the arm drew' src='/api/jobs/" + job + "/files/side_by_side.png?inline=1'>";
+      }
       html += "<p>" + Object.keys(f).map(function (k) { return esc(k + " " + f[k]); }).join(", ") + "</p><p>" +
         r.files.filter(function (n) { return /\.(png|json|csv|gcode|rrd|mp4)$/.test(n); }).map(function (n) { return link(n); }).join("") + "</p>";
     }
