@@ -118,7 +118,8 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
     ]
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> Any:
-        threading.Thread(target=_warm_up, name="studio-warm-up", daemon=True).start()
+        threading.Thread(target=_warm_up, args=(settings.db_url,), name="studio-warm-up",
+                         daemon=True).start()
         yield
         studio.viewer.close()
         await asyncio.to_thread(studio.runner.close)  # stops what runs here, cleanly
@@ -128,13 +129,16 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
     return _guarded(app, studio)
 
 
-def _warm_up() -> None:
+def _warm_up(db_url: str) -> None:
     """What this process does at a page's first Fit and first result, done at start: the
-    spec's checks (the plugins, the kinds) and the motion's sampling (torch)."""
+    spec's checks (the plugins, the kinds), the job store's engine and the motion's
+    sampling (torch)."""
     from inkmotion.jobs.kind import resolve
+    from inkmotion.store import list_jobs
     from inkmotion.studio.motion import warm_up
 
     resolve(JobSpec(kind="fit", inputs={"drawing": "text:a"}))
+    list_jobs(limit=1, db_url=db_url)
     warm_up()
 
 

@@ -138,11 +138,15 @@ def _finite(v: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def start_job_process() -> None:
+def start_job_process(db_url: str) -> None:
     """A job process's start: Ctrl-C is the studio's to handle (it cancels the jobs, which
-    then end cleanly, recorded as cancelled), and :func:`warm_up`."""
+    then end cleanly, recorded as cancelled), :func:`warm_up`, and a first query of the
+    job store at ``db_url`` (its engine made, its schema checked: 0.5 s the first time)."""
+    from inkmotion.store import list_jobs
+
     _ignore_ctrl_c()
     warm_up()
+    list_jobs(limit=1, db_url=db_url)
 
 
 def _ignore_ctrl_c() -> None:
@@ -152,22 +156,20 @@ def _ignore_ctrl_c() -> None:
 
 
 def warm_up() -> None:
-    """Import what a job needs (torch, the plugins, the fit, rerun: about 3 s on a laptop
-    CPU) and compile skan's graph code (about 3 s more, paid once per process) so that the
-    first Fit pressed shows progress at once."""
+    """Run a 2-step fit of one letter into a temporary folder and compile skan's graph
+    code: the imports (torch, the plugins, rerun) and the first calls of a job cost about
+    4 s once per process, and 3 s more for a picture's first trace; paid here, the first
+    Fit pressed shows progress at once."""
+    import tempfile
+
     import numpy as np
-    import rerun  # noqa: F401
-    import torch  # noqa: F401
     from skan import Skeleton
 
-    import inkmotion.fitting.stages  # noqa: F401
-    import inkmotion.jobs.shell  # noqa: F401
-    import inkmotion.kinds.fit  # noqa: F401
-    import inkmotion.recording.recorder  # noqa: F401
-    from inkmotion.plugin_host import KIND_HOOKS, host
+    from inkmotion.jobs.shell import run_job
 
-    for kind in KIND_HOOKS:
-        host().plugins(kind)
+    with tempfile.TemporaryDirectory(prefix="inkmotion-warm-up-") as folder:
+        run_job(JobSpec(kind="fit", inputs={"drawing": "text:a"}, params={"steps": 2}),
+                Path(folder) / "out", record=True)
     Skeleton(np.eye(8, dtype=bool))  # a picture's first trace compiles this
 
 
@@ -197,7 +199,8 @@ class Runner:
             self._manager = SyncManager(ctx=context)
             self._manager.start(_ignore_ctrl_c)  # it outlives the jobs it carries events for
             self._pool = ProcessPoolExecutor(self.slots, mp_context=context,
-                                             initializer=start_job_process)
+                                             initializer=start_job_process,
+                                             initargs=(settings.db_url,))
             for _ in range(self.slots):  # start them now, not at the first Fit
                 self._pool.submit(_nothing)
         self._live: dict[str, Live] = {}
