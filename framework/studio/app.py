@@ -383,11 +383,20 @@ async def list_jobs(studio: Studio, request: Request) -> Response:
     return JSONResponse({"jobs": [_row(r) for r in records]})
 
 
+def _label(text: str) -> str:
+    """A job's input as the jobs page names it: a word or sample as given, a file by its
+    name, another job's plan as "plan of <its id>"."""
+    path = Path(text)
+    if path.name == "plan.json" and path.parent.name == "artifacts":
+        return f"plan of {path.parent.parent.name[:8]}"
+    return path.name if "/" in text else text
+
+
 def _row(record: Any) -> dict[str, Any]:
     return {"id": record.id, "kind": record.kind, "status": record.status,
-            "label": Path(record.label).name if "/" in record.label else record.label,
+            "label": _label(record.label),
             "step": record.step, "total": record.total, "error": record.error,
-            "created": record.created_at.isoformat(timespec="seconds"),
+            "created": record.created_at.strftime("%Y-%m-%d %H:%M:%S UTC"),
             "metrics": {k: v for k, v in (record.metrics or {}).items()
                         if isinstance(v, int | float | str)}}
 
