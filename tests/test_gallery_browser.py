@@ -15,8 +15,8 @@ from urllib.parse import unquote, urlparse
 import cv2
 import pytest
 
+from inkmotion.browser import chromium, find_browser, full_page_screenshot
 from inkmotion.gallery import build_gallery, collect
-from inkmotion.gallery.browser import chromium, find_browser, full_page_screenshot
 
 pytest.importorskip("selenium", reason="Selenium is not installed (the test extra)")
 if find_browser() is None:

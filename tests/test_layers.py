@@ -1,7 +1,7 @@
 """The import layers of inkmotion, one line each, kept by walking every module's imports.
 
 - foundation: the top-level modules ``inkmotion.errors, json_files, settings, rng, lazy,
-  events, devices`` — import only the foundation.
+  events, devices, browser`` — import only the foundation.
 - engines: ``sigma_lognormal, geometry, inputs, tracing, rendering, image_losses, fitting,
   clip, saliency, initialisers, images, outputs, robot, evaluation, recording, profiling,
   store, samples``
@@ -53,7 +53,8 @@ SOURCES = {"framework": "inkmotion", "plugins": "inkmotion.plugins",
 OUTSIDE = {"inkmotion", "inkmotion.__main__"}
 PROTOCOLS = "inkmotion.plugin_host.protocols"
 
-FOUNDATION = ("errors", "json_files", "settings", "rng", "lazy", "events", "devices")
+FOUNDATION = ("errors", "json_files", "settings", "rng", "lazy", "events", "devices",
+              "browser")
 ENGINES = ("sigma_lognormal", "geometry", "inputs", "tracing", "rendering", "image_losses",
            "fitting", "clip", "saliency", "initialisers", "images", "outputs", "robot", "plotter",
            "evaluation", "recording", "profiling", "store", "samples", "speed_extrema")

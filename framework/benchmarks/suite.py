@@ -68,6 +68,11 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
 
         return bench_gallery()
 
+    def studio() -> dict:
+        from inkmotion.benchmarks.studio import bench_studio
+
+        return bench_studio()
+
     def throughput() -> dict:
         from inkmotion.benchmarks.throughput import bench_throughput
 
@@ -83,7 +88,7 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
     return {"kinematics": kinematics, "raster": raster, "spray": spray, "fit": fit,
             "extraction": extraction, "recording": recording,
             "queue": queue, "generation": generation, "gallery": gallery, "tsp": tsp,
-            "throughput": throughput}
+            "throughput": throughput, "studio": studio}
 
 
 def _on(bench: Callable[..., dict], device: str) -> dict:

@@ -89,7 +89,8 @@ def bench_cmd(
              "redis-server and Celery workers), generation (CLIP tag and abstract, "
              "seconds per step), gallery (build a gallery of 100 jobs, rebuild it), "
              "throughput (minutes: fits per minute side by side and batched), tsp (the "
-             "tour solvers).")] = None,
+             "tour solvers), studio (a newcomer's clicks in `inkmotion studio`, in "
+             "headless Chromium).")] = None,
     fit_input: Annotated[Optional[str], typer.Option(  # noqa: UP045
         help="Input of the fit benchmark (default: sample:tempt-1, a recorded tag shipped "
              "with inkmotion).")] = None,
@@ -116,6 +117,8 @@ def bench_cmd(
       inkmotion bench --only queue
 
       inkmotion bench --only generation --device cuda
+
+      inkmotion bench --only studio
 
       inkmotion bench --only raster --json > raster.json
     """

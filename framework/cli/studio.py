@@ -66,6 +66,7 @@ def studio_cmd(
 
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
+    _check_port(host, port)  # before any job process starts
     try:
         settings = load_settings()
         if workers:
@@ -75,7 +76,6 @@ def studio_cmd(
         app = create_app(settings, token=token, workers=workers, slots=slots or None)
     except InkmotionError as exc:
         fail(exc)
-    _check_port(host, port)
     config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False)
     server = uvicorn.Server(config)
     err = Console(stderr=True, highlight=False)

@@ -7,6 +7,7 @@ Pages: ``/`` (draw, drop or pick a drawing; fit it; watch it move; send it on), 
 ``POST /api/uploads``                     the file as the body, its name in ``X-Filename``:
                                           checked (:mod:`.uploads`), kept for a fit
 ``POST /api/fits``                        ``{"input": {...}, "settings": {...}}``: a fit job
+``GET  /api/status``                      ready (job processes warmed up), slots, workers
 ``GET  /api/jobs``                        the jobs, newest first
 ``GET  /api/jobs/ID/events``              server-sent events of the job (:mod:`.runner`)
 ``POST /api/jobs/ID/cancel``              cancel it
@@ -36,6 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import jinja2
 from starlette.applications import Starlette
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response, StreamingResponse
@@ -97,8 +99,6 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
     secret every request must carry (``?token=`` once, then a cookie); ``workers``: jobs
     are queued for the workers instead of running in this process."""
     studio = Studio(settings, Runner(settings, workers=workers, slots=slots), token)
-    import jinja2
-
     templates = Jinja2Templates(env=jinja2.Environment(
         loader=jinja2.FileSystemLoader(HERE / "templates"), autoescape=True))
     routes = [
@@ -107,6 +107,7 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
         Route("/jobs", _page(studio, templates, "jobs.html.j2")),
         Route("/api/uploads", _api(studio, upload), methods=["POST"]),
         Route("/api/fits", _api(studio, start_fit), methods=["POST"]),
+        Route("/api/status", _api(studio, status)),
         Route("/api/jobs", _api(studio, list_jobs)),
         Route("/api/jobs/{job_id}/events", _api(studio, events)),
         Route("/api/jobs/{job_id}/cancel", _api(studio, cancel), methods=["POST"]),
@@ -116,6 +117,7 @@ def create_app(settings: Settings, *, token: str | None = None, workers: bool = 
         Route("/api/jobs/{job_id}/rerun", _api(studio, rerun_viewer), methods=["POST"]),
         Mount("/static", StaticFiles(directory=str(HERE / "static")), name="static"),
     ]
+
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> Any:
         threading.Thread(target=_warm_up, args=(settings.db_url,), name="studio-warm-up",
@@ -376,6 +378,12 @@ def _send_setting(name: str, value: Any) -> Any:
 
 
 # -- following jobs -------------------------------------------------------------------------
+async def status(studio: Studio, request: Request) -> Response:
+    runner = studio.runner
+    return JSONResponse({"ready": runner.ready, "slots": runner.slots,
+                         "workers": runner.workers})
+
+
 async def list_jobs(studio: Studio, request: Request) -> Response:
     from inkmotion import store
 

@@ -138,15 +138,17 @@ def _finite(v: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def start_job_process(db_url: str) -> None:
+def start_job_process(db_url: str, warmed: Any) -> None:
     """A job process's start: Ctrl-C is the studio's to handle (it cancels the jobs, which
     then end cleanly, recorded as cancelled), :func:`warm_up`, and a first query of the
-    job store at ``db_url`` (its engine made, its schema checked: 0.5 s the first time)."""
+    job store at ``db_url`` (its engine made, its schema checked: 0.5 s the first time);
+    then its pid goes on the shared list ``warmed``."""
     from inkmotion.store import list_jobs
 
     _ignore_ctrl_c()
     warm_up()
     list_jobs(limit=1, db_url=db_url)
+    warmed.append(os.getpid())
 
 
 def _ignore_ctrl_c() -> None:
@@ -190,6 +192,7 @@ class Runner:
         self.slots = slots or default_slots(default_threads())
         self._manager: Any = None
         self._pool: ProcessPoolExecutor | None = None
+        self._warmed: Any = []
         if not workers:
             # one process per slot (spawned once, warmed up): fits in threads of one
             # process share its interpreter lock and ran 1.9-2.0x slower two at a time
@@ -198,15 +201,22 @@ class Runner:
             context = multiprocessing.get_context("spawn")
             self._manager = SyncManager(ctx=context)
             self._manager.start(_ignore_ctrl_c)  # it outlives the jobs it carries events for
+            self._warmed = self._manager.list()  # a job process's pid once it is warm
             self._pool = ProcessPoolExecutor(self.slots, mp_context=context,
                                              initializer=start_job_process,
-                                             initargs=(settings.db_url,))
+                                             initargs=(settings.db_url, self._warmed))
             for _ in range(self.slots):  # start them now, not at the first Fit
                 self._pool.submit(_nothing)
         self._live: dict[str, Live] = {}
         self._futures: dict[str, Future] = {}
         self._lock = threading.Lock()
         self.host = socket.gethostname()
+
+    @property
+    def ready(self) -> bool:
+        """Whether every job process has started and warmed up (a Fit now shows progress
+        at once); always with ``--workers``."""
+        return self._pool is None or len(self._warmed) >= self.slots
 
     # -- starting ------------------------------------------------------------------------
     def start(self, spec: JobSpec) -> str:
@@ -336,6 +346,7 @@ def run_here(settings: Settings, host: str, job_id: str, spec: JobSpec, queue: A
     live = _Remote(job_id, queue, cancel)
     from inkmotion import store
     from inkmotion.errors import InkmotionError
+    from inkmotion.jobs.checkpoint import remove_checkpoint
     from inkmotion.jobs.shell import run_job
     from inkmotion.workers.leases import Heartbeat, LeaseLost, attempt_owner
     from inkmotion.workers.progress import JobCancelled as StoreCancelled
@@ -350,15 +361,22 @@ def run_here(settings: Settings, host: str, job_id: str, spec: JobSpec, queue: A
             return
         live.emit({"type": "running"})
         artifacts = settings.job_dir(job_id) / "artifacts"
+        checkpoint = artifacts.parent / "checkpoint.pt"
         with Heartbeat(job_id, owner, db, lease_s) as beat:
             progress = StoreProgressObserver(job_id, db, owner=owner, lease_s=lease_s,
                                              lost=beat.lost)
+            # checkpointed as a worker does: a worker that takes over a dead studio's job
+            # resumes it from there
             report = run_job(spec, artifacts, [LiveObserver(live), progress],
-                             record=True, recording_id=job_id)
+                             record=True, recording_id=job_id, checkpoint=checkpoint,
+                             checkpoint_every=settings.checkpoint_steps,
+                             checkpoint_s=settings.checkpoint_s)
+        remove_checkpoint(checkpoint)  # complete: nothing to resume
         store.mark_succeeded(job_id, str(artifacts), db, metrics=report.get("metrics"),
                              owner=owner)
         live.emit({"type": "end", "status": "succeeded"})
     except (JobCancelled, StoreCancelled):
+        remove_checkpoint(settings.job_dir(job_id) / "checkpoint.pt")
         store.mark_cancelled(job_id, db)
         live.emit({"type": "end", "status": "cancelled"})
     except LeaseLost:
