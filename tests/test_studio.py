@@ -393,11 +393,11 @@ def test_a_dead_studio_s_job_is_finished_by_a_worker(service_env, workers, tmp_p
 
     s = Studio(tmp_path, env=service_env)
     status, d = s.request("POST", "/api/fits", {"input": {"text": "lost"},
-                                                "settings": {"steps": 400}})
+                                                "settings": {"steps": 200}})
     job = d["job"]
     with urllib.request.urlopen(f"{s.url}/api/jobs/{job}/events", timeout=120) as r:
         for line in r:  # past its first checkpoint (every 50 steps)
-            if line.startswith(b"data: ") and json.loads(line[6:]).get("step", 0) >= 80:
+            if line.startswith(b"data: ") and json.loads(line[6:]).get("step", 0) >= 60:
                 break
     os.killpg(s.proc.pid, signal.SIGKILL)  # the studio and its job processes, at once
     s.proc.wait()
