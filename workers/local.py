@@ -59,13 +59,15 @@ def wait_for_redis(port: int, timeout: float, host: str = HOST) -> bool:
     return False
 
 
-def stop_process(proc: subprocess.Popen[bytes], grace: float = 10.0) -> None:
-    """SIGTERM the process group of ``proc`` (started with ``start_new_session=True``),
-    then SIGKILL what is left after ``grace`` seconds. No-op when it has exited."""
+def stop_process(proc: subprocess.Popen[bytes], grace: float = 10.0,
+                 first: int = signal.SIGTERM) -> None:
+    """Signal ``first`` (SIGTERM; SIGINT is a terminal's Ctrl-C) to the process group of
+    ``proc`` (started with ``start_new_session=True``), then SIGKILL what is left after
+    ``grace`` seconds. No-op when it has exited."""
     if proc.poll() is not None:
         return
     try:
-        os.killpg(proc.pid, signal.SIGTERM)
+        os.killpg(proc.pid, first)
     except ProcessLookupError:
         return
     try:

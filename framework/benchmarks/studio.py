@@ -27,7 +27,7 @@ READY_TIMEOUT_S = 180.0
 def bench_studio() -> dict[str, float]:
     """{"studio_ready_s", "studio_page_ms", "studio_first_progress_ms", "studio_fit_shown_s",
     "studio_fps", "studio_gcode_s", "studio_three_over_alone"}."""
-    from inkmotion.workers.local import HOST, free_port
+    from inkmotion.workers.local import HOST, free_port, stop_process
 
     with tempfile.TemporaryDirectory(prefix="inkmotion-bench-studio-") as tmp:
         root = Path(tmp)
@@ -47,12 +47,7 @@ def bench_studio() -> dict[str, float]:
             figures.update(_newcomer(url, root / "downloads"))
             return figures
         finally:
-            os.kill(proc.pid, signal.SIGINT)
-            try:
-                proc.wait(60)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait()
+            stop_process(proc, grace=60, first=signal.SIGINT)  # Ctrl-C: it ends its jobs
 
 
 def _ready(url: str) -> bool:

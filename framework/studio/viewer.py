@@ -10,7 +10,6 @@ loopback whatever the studio's ``--host``); elsewhere, download recording.rrd.
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import threading
 import time
@@ -67,12 +66,8 @@ class RerunViewer:
 
     def close(self) -> None:
         """Stop the viewer (its whole process group), if one runs."""
+        from inkmotion.workers.local import stop_process
+
         proc, self._proc = self._proc, None
-        if proc is None or proc.poll() is not None:
-            return
-        os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        if proc is not None:
+            stop_process(proc, grace=5)
