@@ -31,7 +31,6 @@ import os
 import socket
 import threading
 import time
-from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,16 +54,15 @@ class JobCancelled(Exception):
 
 @dataclass
 class Live:
-    """What a page can see of a job that runs in this process: its event list (appended
-    by the job's thread, read by the page's stream) and its cancel flag."""
+    """What a page can see of a job that runs here: its event list (appended by the
+    thread that drains its process's queue, read by the page's stream) and its cancel
+    flag (a manager's Event: the job's process reads it)."""
 
     job_id: str
+    cancel: Any
     events: list[dict[str, Any]] = field(default_factory=list)
-    cancel: threading.Event = field(default_factory=threading.Event)
     done: threading.Event = field(default_factory=threading.Event)
     lock: threading.Lock = field(default_factory=threading.Lock)
-    #: the cancel flag the job's pool process reads (a manager's Event)
-    remote_cancel: Any = None
 
     def emit(self, event: dict[str, Any]) -> None:
         with self.lock:
@@ -248,13 +246,12 @@ class Runner:
         except Exception:
             shutil.rmtree(job_dir, ignore_errors=True)
             raise
-        live = Live(job_id)
+        assert self._pool is not None and self._manager is not None
+        queue, cancel = self._manager.Queue(), self._manager.Event()
+        live = Live(job_id, cancel)
         live.emit({"type": "queued"})
         with self._lock:
             self._live[job_id] = live
-        assert self._pool is not None and self._manager is not None
-        queue, cancel = self._manager.Queue(), self._manager.Event()
-        live.remote_cancel = cancel
         self._futures[job_id] = self._pool.submit(run_here, self.settings, self.host, job_id,
                                                   stored, queue, cancel)
         threading.Thread(target=_drain, args=(queue, live), name=f"studio-{job_id[:8]}",
@@ -267,8 +264,6 @@ class Runner:
         live = self._live.get(job_id)
         if live is not None:
             live.cancel.set()
-            if live.remote_cancel is not None:
-                live.remote_cancel.set()
             if live.done.is_set():
                 return False
             from inkmotion import store
@@ -304,16 +299,6 @@ class Runner:
             event = {"type": "end", "status": record.status, "error": record.error}
         return [event], index + 1, record.finished
 
-    def follow(self, job_id: str, poll_s: float = 0.1) -> Iterator[dict[str, Any]]:
-        """The job's events as they come, until it ends (blocking; for tests and scripts)."""
-        index, ended = 0, False
-        while not ended:
-            events, index, ended = self.events(job_id, index)
-            yield from events
-            if any(e.get("type") == "end" for e in events):
-                return
-            time.sleep(poll_s)
-
     def close(self) -> None:
         """Cancel what runs here and wait for its processes: a running job stops at its
         next step and leaves no artifacts, a waiting one never starts; both are recorded
@@ -322,8 +307,6 @@ class Runner:
 
         for live in list(self._live.values()):
             live.cancel.set()
-            if live.remote_cancel is not None:
-                live.remote_cancel.set()
         if self._pool is None:
             return
         self._pool.shutdown(wait=True, cancel_futures=True)
