@@ -110,8 +110,10 @@ FIGURES: dict[str, tuple[str, str]] = {
     "studio_three_over_alone": ("×", "the slowest of 3 words fitted at once in 3 tabs / one "
                                      "alone (2 run at once on 2 cores)"),
     # throughput
-    "fit_alone_s": ("s", "one default fit alone"),
-    "pair_over_alone": ("×", "wall time of 2 fits side by side / one fit alone"),
+    "fit_alone_s": ("s", "one default fit of text:hello alone (median of 3 rounds)"),
+    "fit_pair_s": ("s", "two such fits side by side, until both ended (median of 3)"),
+    "pair_over_alone": ("×", "wall time of 2 fits side by side / one fit alone, the same "
+                        "word (median of 3 rounds of alone then pair)"),
     "oversubscribed_2_fits_per_min": ("/min", "2 fits side by side, each taking every "
                                               "core"),
 }
