@@ -87,7 +87,7 @@ def _png_claiming(w: int, h: int) -> bytes:
     ("tag.gml", b"x" * (2 * MB), "above the 1 MB upload limit"),
     ("photo.png", b"GIF89a....", "not a PNG picture"),
     ("huge.png", _png_claiming(30000, 30000), "900 megapixels, more than the 400"),
-    ("broken.png", PNG + b"\x00" * 30, "cannot be read"),
+    ("broken.png", PNG + b"\x00" * 30, "not a picture this can read"),
     ("tag.svg", b"\x00\x01binary", "not a text file"),
 ])
 def test_a_bad_upload_is_refused_in_one_sentence(name, data, words):

@@ -68,25 +68,13 @@ def check_upload(filename: str, data: bytes, max_bytes: int) -> str:
 
 
 def _check_pixels(shown: str, data: bytes) -> None:
+    """The picture's header read as the tracer reads it (the same sentences)."""
     import io
-    import warnings
 
-    from PIL import Image, UnidentifiedImageError
+    from inkmotion.tracing.picture import open_picture
 
-    from inkmotion.tracing.picture import REFUSE_PIXELS, too_many_pixels
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            Image.MAX_IMAGE_PIXELS = None  # the tracer's own limit, from the header, below
-            with Image.open(io.BytesIO(data)) as image:
-                w, h = image.size
-    except (UnidentifiedImageError, OSError, ValueError) as exc:
-        why = str(exc).split(" <")[0]  # without the buffer's repr
-        raise InputError(f"{shown}: the picture cannot be read ({why}); export it "
-                         "again.") from None
-    if w * h > REFUSE_PIXELS:
-        raise InputError(too_many_pixels(shown, w, h))
+    with open_picture(io.BytesIO(data), shown):
+        pass
 
 
 def store_upload(folder: Path, name: str, data: bytes) -> Path:

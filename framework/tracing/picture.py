@@ -23,10 +23,13 @@ half-tones than ink, or its ink too wide for the page).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -80,43 +83,57 @@ def too_many_pixels(source: str, w: int, h: int) -> str:
     return (f"{source}: {w} × {h} is {w * h / 1e6:.0f} megapixels, more than the "
             f"{REFUSE_PIXELS / 1e6:.0f} this reads; scan or export it smaller.")
 
-def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
-    """Grey (H, W) float32 in [0, 1] of the picture file ``source``, the decoded size over
-    the file's, and notes (module docstring, step 1)."""
+@contextlib.contextmanager
+def open_picture(file: str | BinaryIO, shown: str) -> Iterator[Any]:
+    """The picture ``file`` (a path, or a file object of its bytes) opened by Pillow with its
+    header read: an :class:`InputError` naming ``shown`` for a file that is not a picture,
+    one that cannot be decoded (truncated, damaged; also when the ``with`` body fails to
+    decode it) and one whose header declares more than :data:`REFUSE_PIXELS` (the bomb
+    check is this limit, read from the header before any pixel is decoded)."""
     from PIL import Image, UnidentifiedImageError
 
-    notes: list[str] = []
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            Image.MAX_IMAGE_PIXELS = None  # our own limits below, from the header
-            with Image.open(source) as img:
+            Image.MAX_IMAGE_PIXELS = None  # our own limit below, from the header
+            with Image.open(file) as img:
                 w, h = img.size
                 if w * h > REFUSE_PIXELS:
-                    raise InputError(too_many_pixels(source, w, h))
-                factor = max(1, math.ceil(math.sqrt(w * h / WORK_PIXELS)))
-                if factor > 1 and img.format == "JPEG":
-                    img.draft("L", (w // factor, h // factor))
-                img.load()
-                img = _flatten(img)
-                if factor > 1:
-                    step = max(1, round(img.size[0] / (w / factor)))
-                    if step > 1:
-                        img = img.reduce(step)
-                    if img.size[0] * img.size[1] > 1.05 * WORK_PIXELS:
-                        img = img.resize((w // factor, h // factor), Image.Resampling.BOX)
-                    notes.append(f"the picture ({w} × {h} px) was reduced to "
-                                 f"{img.size[0]} × {img.size[1]} px to trace it")
-                grey = _grey_array(img)
-                scale = img.size[0] / w
+                    raise InputError(too_many_pixels(shown, w, h))
+                yield img
     except InputError:
         raise
     except UnidentifiedImageError:
-        raise InputError(f"{source}: not a picture this can read (PNG, JPEG, BMP, TIFF, "
+        raise InputError(f"{shown}: not a picture this can read (PNG, JPEG, BMP, TIFF, "
                          "WebP); check the file.") from None
     except (OSError, SyntaxError, ValueError) as exc:
-        raise InputError(f"{source}: the picture cannot be decoded ({_reason(exc)}); it may be "
+        raise InputError(f"{shown}: the picture cannot be decoded ({_reason(exc)}); it may be "
                          "truncated or damaged, so export it again.") from None
+
+
+def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
+    """Grey (H, W) float32 in [0, 1] of the picture file ``source``, the decoded size over
+    the file's, and notes (module docstring, step 1)."""
+    from PIL import Image
+
+    notes: list[str] = []
+    with open_picture(source, source) as img:
+        w, h = img.size
+        factor = max(1, math.ceil(math.sqrt(w * h / WORK_PIXELS)))
+        if factor > 1 and img.format == "JPEG":
+            img.draft("L", (w // factor, h // factor))
+        img.load()
+        img = _flatten(img)
+        if factor > 1:
+            step = max(1, round(img.size[0] / (w / factor)))
+            if step > 1:
+                img = img.reduce(step)
+            if img.size[0] * img.size[1] > 1.05 * WORK_PIXELS:
+                img = img.resize((w // factor, h // factor), Image.Resampling.BOX)
+            notes.append(f"the picture ({w} × {h} px) was reduced to "
+                         f"{img.size[0]} × {img.size[1]} px to trace it")
+        grey = _grey_array(img)
+        scale = img.size[0] / w
     return grey, scale, notes
 
 
