@@ -54,6 +54,8 @@ FIGURES: dict[str, tuple[str, str]] = {
     "fit_steps": ("", "Adam steps of the timed fit (the fit's default)"),
     "fit_wall_s": ("s", "the whole fit job, default settings (350 px): read, initialise, "
                         "optimise, write (report.json's wall_s)"),
+    "fit_warm_wall_s": ("s", "the same job again in the same process, as a worker's later "
+                             "jobs run: imports and first calls already paid"),
     "fit_ms_per_step": ("ms", "optimiser time per step"),
     "fit_moves": ("", "sub-movements (lognormals) of the fitted plan"),
     "fit_chamfer_mean_px": ("px", "mean distance between the input and the fitted "

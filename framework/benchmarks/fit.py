@@ -29,11 +29,13 @@ def default_fit_input() -> str:
 
 
 def bench_fit(input: str | None = None, steps: int | None = None, size: int = 350,
-              device: str = "cpu") -> dict[str, float | str]:
+              device: str = "cpu", warm: bool = False) -> dict[str, float | str]:
     """Job time of a full fit (the fit kind's default settings, ``steps`` if given) and its
     quality figures, with the plan's size (lognormals) beside them. The job runs with a
     fit's default thread count, as ``inkmotion run fit`` does (not ``bench --threads``,
-    which sets the other figures' torch threads)."""
+    which sets the other figures' torch threads). ``warm``: the same job once more in
+    this process, whose imports and first calls are then paid, as a worker's later jobs
+    find them (``fit_warm_wall_s``)."""
     from dataclasses import fields
 
     from inkmotion.devices import DEFAULT_THREADS
@@ -48,11 +50,14 @@ def bench_fit(input: str | None = None, steps: int | None = None, size: int = 35
                    params={"steps": steps, "size": size}, threads=DEFAULT_THREADS)
     with tempfile.TemporaryDirectory() as tmp:
         report = run_job(spec, Path(tmp) / "out")
+        again = run_job(spec, Path(tmp) / "again") if warm else None
     suffix = "" if size == 350 else f"_{size}px"
+    warm_wall = {} if again is None else {f"fit{suffix}_warm_wall_s": again["wall_s"]}
     return {
         "fit_input": source if is_scheme(source) else Path(source).name,
         "fit_steps": steps,
         f"fit{suffix}_wall_s": report["wall_s"],
+        **warm_wall,
         f"fit{suffix}_ms_per_step": 1e3 * report["fit_s"] / steps,
         f"fit{suffix}_moves": report["moves"],
         f"fit{suffix}_chamfer_mean_px": report["chamfer_mean_px"],

@@ -38,7 +38,7 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
     def fit() -> dict:
         from inkmotion.benchmarks.fit import bench_fit
 
-        figures = bench_fit(fit_input, device=device)
+        figures = bench_fit(fit_input, device=device, warm=True)
         if device != "cpu":  # the GPU figure: the same tag at 1000 px
             figures.update(bench_fit(fit_input, size=1000, device=device))
         return figures
