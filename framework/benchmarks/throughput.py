@@ -32,8 +32,8 @@ WORDS = ("hello", "world", "graffiti", "motion", "sigma", "lognormal", "robot", 
          "paint", "spray", "marker", "pencil", "brush", "stroke", "curve", "letter")
 
 
-#: the word of the alone-and-pair rounds, and how many rounds
-PAIR_WORD, PAIR_REPEATS = "hello", 3
+#: the word of the alone-and-pair rounds (the first of concurrency 1), and how many rounds
+PAIR_WORD, PAIR_REPEATS = WORDS[0], 3
 
 
 def _concurrent(n: int, root: Path, env: dict[str, str], device: str = "cpu",
@@ -104,7 +104,8 @@ def bench_throughput(concurrency: tuple[int, ...] = (1, 2, 4),
         root = Path(tmp)
         figures.update(_pair_rounds(root, free, device))
         for n in concurrency:
-            wall = _concurrent(n, root / f"n{n}", free, device)
+            wall = (figures["fit_alone_s"] if n == 1  # the rounds' fits alone: the same
+                    else _concurrent(n, root / f"n{n}", free, device))
             figures[f"concurrent_{n}_fits_per_min"] = 60.0 * n / wall
         if device == "cpu":
             wall = _concurrent(2, root / "over", {"INKMOTION_THREADS": str(cores)})

@@ -77,12 +77,6 @@ def is_picture(source: str) -> bool:
     return Path(source).suffix.lower() in SUFFIXES
 
 
-
-def too_many_pixels(source: str, w: int, h: int) -> str:
-    """The sentence for a picture above :data:`REFUSE_PIXELS`."""
-    return (f"{source}: {w} × {h} is {w * h / 1e6:.0f} megapixels, more than the "
-            f"{REFUSE_PIXELS / 1e6:.0f} this reads; scan or export it smaller.")
-
 @contextlib.contextmanager
 def open_picture(file: str | BinaryIO, shown: str) -> Iterator[Any]:
     """The picture ``file`` (a path, or a file object of its bytes) opened by Pillow with its
@@ -99,7 +93,9 @@ def open_picture(file: str | BinaryIO, shown: str) -> Iterator[Any]:
             with Image.open(file) as img:
                 w, h = img.size
                 if w * h > REFUSE_PIXELS:
-                    raise InputError(too_many_pixels(shown, w, h))
+                    raise InputError(
+                        f"{shown}: {w} × {h} is {w * h / 1e6:.0f} megapixels, more than the "
+                        f"{REFUSE_PIXELS / 1e6:.0f} this reads; scan or export it smaller.")
                 yield img
     except InputError:
         raise
