@@ -110,6 +110,18 @@ def _taps() -> tuple[tuple[float, ...], tuple[float, ...]]:
                                       k[3] + k[4], k[4]))
 
 
+@functools.cache
+def _tap_tensors(dtype: torch.dtype, device: torch.device
+                 ) -> tuple[tuple[torch.Tensor, ...], tuple[torch.Tensor, ...]]:
+    """:func:`_taps` as 0-d tensors of ``dtype`` on ``device``, made once: a product with
+    one rounds the weight to ``dtype`` as a Python float would, the same bits, without
+    wrapping the number into a tensor on every call (about 1 µs an op here)."""
+    k, folded = _taps()
+    as_tensors = lambda w: torch.tensor(w, dtype=torch.float64).to(  # noqa: E731
+        device=device, dtype=dtype).unbind(0)
+    return as_tensors(k), as_tensors(folded)
+
+
 def _down_forward(image: torch.Tensor, dim: int) -> torch.Tensor:
     """One level down along ``dim`` (-1 or -2) of ``image`` (..., H, W), n → ⌈n/2⌉: the
     5-tap Gaussian with replicate padding, then the mean of each pair of samples (a lone
@@ -118,18 +130,18 @@ def _down_forward(image: torch.Tensor, dim: int) -> torch.Tensor:
     determinism)."""
     n = image.shape[dim]
     half = n // 2
-    k, folded = _taps()
+    k, folded = _tap_tensors(image.dtype, image.device)
     r = KERNEL_SIZE // 2
     first, last = image.narrow(dim, 0, 1), image.narrow(dim, n - 1, 1)
     padded = torch.cat([first] * r + [image] + [last] * (r + 1), dim=dim)  # n + 5
     lead = (slice(None),) * (padded.dim() + dim)  # the axes before ``dim``
     out = padded[(*lead, slice(0, 2 * half, 2))] * folded[0]
     for j in range(1, 6):
-        out = out + padded[(*lead, slice(j, j + 2 * half, 2))] * folded[j]
+        out.add_(padded[(*lead, slice(j, j + 2 * half, 2))] * folded[j])
     if n % 2:  # the last window holds the one blurred sample n − 1
         tail = padded.narrow(dim, n - 1, 1) * k[0]
         for j in range(1, KERNEL_SIZE):
-            tail = tail + padded.narrow(dim, n - 1 + j, 1) * k[j]
+            tail.add_(padded.narrow(dim, n - 1 + j, 1) * k[j])
         out = torch.cat((out, tail), dim=dim)
     return out
 
@@ -138,9 +150,10 @@ def _down_backward(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
     """The adjoint of :func:`_down_forward` (its exact transpose) applied to ``grad``: each
     output's gradient added back to the samples it read, with their weights, in a fixed
     order into one buffer (no autograd graph of slices, each of which would allocate and
-    zero a full-size gradient)."""
+    zero a full-size gradient; each add in place into a view of it, never a slice
+    assignment, which would copy the slice onto itself once more)."""
     half = n // 2
-    k, folded = _taps()
+    k, folded = _tap_tensors(grad.dtype, grad.device)
     r = KERNEL_SIZE // 2
     shape = list(grad.shape)
     shape[dim] = n + 2 * r + 1
@@ -148,7 +161,7 @@ def _down_backward(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
     lead = (slice(None),) * (grad.dim() + dim)
     body = grad.narrow(dim, 0, half)
     for j in range(6):
-        padded[(*lead, slice(j, j + 2 * half, 2))] += body * folded[j]
+        padded[(*lead, slice(j, j + 2 * half, 2))].add_(body * folded[j])
     if n % 2:
         tail = grad.narrow(dim, half, 1)
         for j in range(KERNEL_SIZE):
