@@ -106,6 +106,50 @@ def test_a_cusp_is_drawn_out_to_its_point_and_back(tmp_path: Path) -> None:
     assert strokes[0][:, 1].min() < 55  # reaches the point (the spike is not pruned)
 
 
+def test_a_shallow_crossing_is_two_strokes_each_straight_through(tmp_path: Path) -> None:
+    # two lines crossing at 20°: their skeleton forks about 8 radii apart, a bridge that
+    # the junction merge alone leaves as two T's (four pieces, as a script l's loop was)
+    img = line(page(), [(40, 130), (360, 186)])
+    img = line(img, [(40, 186), (360, 130)])
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 2, [s[[0, -1], :2].round().tolist() for s in strokes]
+    for s in strokes:  # each from one side of the page to the other, left to right
+        assert s[0, 0] < 50 and s[-1, 0] > 350
+        assert abs(s[-1, 1] - s[0, 1]) > 40  # not bounced back at the crossing
+
+
+def test_an_h_is_not_a_shallow_crossing(tmp_path: Path) -> None:
+    # two stems joined by a short bar: their forks are close, but the arms leave across
+    # the bar (90°), so the stems stay whole and the bar is a stroke of its own
+    img = line(page(), [(180, 60), (180, 240)])
+    img = line(img, [(220, 60), (220, 240)])
+    img = line(img, [(180, 150), (220, 150)])
+    strokes = strokes_of(tmp_path, img)
+    stems = [s for s in strokes if np.ptp(s[:, 1]) > 170]
+    assert len(stems) == 2 and all(np.ptp(s[:, 0]) < 6 for s in stems)
+
+
+def test_an_r_is_drawn_in_one_stroke_from_its_foot(tmp_path: Path) -> None:
+    # stem up, bowl round to the stem, leg away at 135° from the bowl: a hand turns that
+    # sharply rather than lift the pen, so the R is one stroke, begun at its foot
+    img = line(page(), [(100, 260), (100, 60), (260, 60), (260, 150), (100, 150),
+                        (260, 260)])
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 1, [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert np.allclose(strokes[0][0, :2], (100, 260), atol=5)
+    assert np.allclose(strokes[0][-1, :2], (260, 260), atol=5)
+
+
+def test_a_sharp_spike_mid_stroke_keeps_the_stroke_whole(tmp_path: Path) -> None:
+    # up to a point and straight back down (25° apart): the cusp's tip branch, shorter
+    # than the reach its direction is read over, leaves the fork towards the tip (not
+    # towards its last point, back at the fork), so the two arms pair through it
+    img = line(page(), [(80, 260), (80, 60), (173, 260), (360, 260)], width=5)
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 1, [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert strokes[0][:, 1].min() < 70  # reaches the point
+
+
 def test_spurs_of_a_wide_brush_are_pruned(tmp_path: Path) -> None:
     img = line(page(), [(60, 150), (340, 150)], width=18)  # a fat bar: ends grow spurs
     strokes = trace_picture(read_picture(save(tmp_path, img)), varying_width=True).strokes

@@ -5,18 +5,21 @@ formed, directed and ordered the way a hand draws them.
    of paths between tips and junctions (:class:`skan.Skeleton`); the ink's radius along it
    is the distance transform (OpenCV's, exact) less half a pixel.
 2. **Graph**: junction pixels joined by a path shorter than :data:`MERGE` ink radii are
-   one junction (a crossing skeletonises into two forks a few pixels apart); a branch from a
-   junction to a tip shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur
-   of the ink's outline, not a stroke, and is dropped.
+   one junction (a crossing skeletonises into two forks a few pixels apart), and so are two
+   forks further apart whose arms read as two lines crossing at a shallow angle
+   (:data:`CROSSING_REACH`: a script l's loop); a branch from a junction to a tip
+   shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur of the ink's
+   outline, not a stroke, and is dropped.
    Where a branch from a tip meets a fork whose other two arms close in at an inner
    angle under :data:`CUSP`, it is the point of a cusp, drawn out and back.
 3. **Strokes**: at every junction the branch ends are paired straightest first, a pair
    taken while it bends by less than :data:`STRAIGHT` (a stroke goes straight through a
-   crossing), then any ends left are paired while they bend by less than :data:`TURN` (a
-   hand turns at a corner rather than lift the pen); a junction of two ends always joins
-   them. Paired branches chain into strokes; a chain that comes back to its start is a
-   loop. At a junction a chain passes through, the skeleton's wobble is cut out (the
-   points within the junction's radius) and the two sides joined.
+   crossing), then the ends left are paired, straightest first, however sharply they turn
+   (a hand turns at a corner, even one as sharp as an R's leg leaving its bowl or a Z's,
+   rather than lift the pen); a junction of two ends always joins them. Paired branches
+   chain into strokes; a chain that comes back to its start is a loop. At a junction a
+   chain passes through, the skeleton's wobble is cut out (the points within the
+   junction's radius) and the two sides joined.
 4. **Direction and order**: an open stroke begins at the end a writer begins at: the top
    one (strokes are pulled down) unless the stroke is nearly level, then the left one
    (smaller :data:`ACROSS_WEIGHT` · x + y); a loop begins at its top and runs
@@ -40,12 +43,20 @@ import numpy as np
 #: junctions joined by a branch shorter than this × their radius (+1.5 px) are one: two
 #: strokes crossing at an angle θ skeletonise into two forks about 2r/tan(θ/2) apart
 MERGE = 2.5
+#: two forks joined by a branch shorter than this × their radius (+1.5 px) are one crossing
+#: when their arms read as two lines crossing at a shallow angle (:func:`_crossings`): two
+#: lines of width w crossing at θ skeletonise into forks about w/tan(θ/2) apart, 10 radii
+#: at 23°, so :data:`MERGE` alone splits a script l's loop or an e's eye
+CROSSING_REACH = 16.0
+#: a shallow crossing's arms leave along its bridge within this (degrees) on either side,
+#: and each line through it bends by less than :data:`CROSSING_BEND`; an H's stems (90°)
+#: or a k's arm (45°) beside its stem are two junctions, not a crossing
+CROSSING_ARM = 35.0
+CROSSING_BEND = 30.0
 #: a junction-to-tip branch shorter than this × the junction's radius (+ 1 px) is a spur
 SPUR = 1.6
 #: branch ends at a junction that bend by less than this (degrees) continue each other
 STRAIGHT = 50.0
-#: ends left over at a junction are joined while they bend by less than this (degrees)
-TURN = 120.0
 #: how much further left counts as much as higher up when choosing where a stroke begins:
 #: a stroke starts at its top end (strokes are pulled down) unless it rises by less than
 #: this share of its width (then at its left end)
@@ -105,6 +116,8 @@ def stroke_graph(mask: np.ndarray) -> StrokeGraph:
     skeleton = skeletonize(mask)
     branches, nodes = _branches(skeleton, radius)
     spurs = _drop_spurs(branches, nodes)
+    _crossings(branches, nodes)
+    _cusps(branches, nodes)
     chains, loops = _chain(branches, nodes)
     strokes = [_stroke_points(chain, branches, nodes, radius) for chain in chains]
     strokes = [s for s in strokes if len(s) >= 2]
@@ -192,8 +205,8 @@ def _branches(skeleton: np.ndarray, radius: np.ndarray
 
 
 def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
-    """Drop junction-to-tip branches shorter than the junction's ink (step 2), then set
-    the points of cusps apart (:func:`_cusps`); how many were dropped."""
+    """Drop junction-to-tip branches shorter than the junction's ink (step 2); how many
+    were dropped."""
     dropped = 0
     for _ in range(3):  # a spur's removal may leave another behind it
         again = False
@@ -212,8 +225,52 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
                     break
         if not again:
             break
-    _cusps(branches, nodes)
     return dropped
+
+
+def _crossings(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
+    """Two forks joined by a short bridge are one crossing of two lines at a shallow angle
+    (step 2) when each fork's two other arms leave along the bridge, within
+    :data:`CROSSING_ARM` of it on either side, and pair across it into two lines that
+    bend by less than :data:`CROSSING_BEND`: the bridge is dropped and the forks become
+    one junction of four ends at its middle, its radius reaching both forks, so the two
+    lines go straight through it as at a wide crossing."""
+    for k, bridge in enumerate(branches):
+        a_key, b_key = bridge.ends
+        if not bridge.kept or a_key == b_key:
+            continue
+        a, b = nodes[a_key], nodes[b_key]
+        if a.degree != 3 or b.degree != 3 or bridge.length > CROSSING_REACH * max(
+                a.radius, b.radius) + 1.5:
+            continue
+        axis = b.centre - a.centre
+        span = float(np.hypot(*axis))
+        if span == 0.0:
+            continue
+        axis = axis / span
+        arms = {}
+        for node, end, along in ((a, (k, 0), -axis), (b, (k, 1), axis)):
+            ends = [e for e in node.ends if e != end]
+            dirs = [_outward(branches[i], j, node) for i, j in ends]
+            if len(ends) != 2 or any(_bend(-along, u) > CROSSING_ARM for u in dirs):
+                break
+            arms[node is b] = list(zip(ends, dirs, strict=True))
+        if len(arms) != 2:
+            continue
+        (a1, u1), (a2, u2) = arms[False]
+        (b1, v1), (b2, v2) = arms[True]
+        bend = min(max(_bend(u1, v1), _bend(u2, v2)), max(_bend(u1, v2), _bend(u2, v1)))
+        if bend >= CROSSING_BEND:
+            continue
+        bridge.kept = False
+        a.centre = (a.centre + b.centre) / 2.0
+        a.radius = max(a.radius, b.radius, span / 2.0)
+        a.ends = [a1, a2, b1, b2]
+        for i, j in (b1, b2):
+            ends = list(branches[i].ends)
+            ends[j] = a_key
+            branches[i].ends = (ends[0], ends[1])
+        b.ends = []
 
 
 def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
@@ -253,7 +310,9 @@ def _outward(br: _Branch, end: int, node: _Node) -> np.ndarray:
     near = int(np.argmax(d >= node.radius)) if np.any(d >= node.radius) else 0
     reach = node.radius + max(4.0, 2.0 * node.radius)
     far_idx = np.flatnonzero(d >= reach)
-    far = int(far_idx[0]) if far_idx.size else len(pts) - 1
+    # a branch that never gets that far: its farthest point (a cusp's tip, not its
+    # last point, which is back at the junction)
+    far = int(far_idx[0]) if far_idx.size else int(np.argmax(d))
     if far <= near:
         near, far = 0, len(pts) - 1
     v = pts[far] - pts[near]
@@ -282,7 +341,7 @@ def _pairs(nodes: dict[int, _Node], branches: list[_Branch]
         options = sorted((_bend(dirs[a], dirs[b]), i, j)
                          for i, a in enumerate(ends) for j, b in enumerate(ends) if i < j)
         free = set(ends)
-        for limit in (STRAIGHT, TURN):
+        for limit in (STRAIGHT, math.inf):
             for bend, i, j in options:
                 a, b = ends[i], ends[j]
                 if bend < limit and a in free and b in free:
