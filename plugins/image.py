@@ -24,7 +24,7 @@ class SkeletonTracer:
     begun top-left, ordered in lines (:mod:`inkmotion.tracing.strokes`)."""
 
     name = "skeleton"
-    description = ("Centrelines of the ink (scikit-image skeleton, skan graph): strokes "
+    description = ("Centrelines of the ink (scikit-image skeleton and pixel graph): strokes "
                    "straight through crossings, in writing order, with the ink's width.")
 
     def __call__(self, picture: Picture, *, varying_width: bool = False,

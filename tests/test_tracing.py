@@ -150,6 +150,33 @@ def test_a_sharp_spike_mid_stroke_keeps_the_stroke_whole(tmp_path: Path) -> None
     assert strokes[0][:, 1].min() < 70  # reaches the point
 
 
+def test_skeleton_paths_are_skans() -> None:
+    # the tracer splits scikit-image's pixel graph into paths itself (skan's path builder
+    # costs seconds of numba compilation per process): the same graph and the same paths
+    # in the same order as skan.Skeleton, on skeletons with tips, crossings, clusters of
+    # junction pixels, a closed loop on its own and a lone pixel pair
+    from skan import Skeleton
+    from skimage.morphology import skeletonize
+
+    from inkmotion.tracing.strokes import skeleton_paths
+
+    img = line(page(), [(50, 50), (350, 250)])
+    img = line(img, [(50, 250), (350, 50)])
+    img = line(img, [(60, 150), (340, 160), (200, 280)], width=9)
+    cv2.circle(img, (90, 60), 25, 30, 4)  # over a line
+    cv2.circle(img, (200, 40), 15, 30, 3)  # alone
+    img[280:282, 380:382] = 30
+    mask = img < 128
+    skeleton = skeletonize(mask)
+    ref = Skeleton(skeleton)
+    coordinates, degrees, paths = skeleton_paths(skeleton)
+    assert np.array_equal(degrees, ref.degrees)
+    assert len(paths) == ref.n_paths > 10
+    assert any(path[0] == path[-1] for path in paths)  # the lone loop, closed
+    for i, path in enumerate(paths):
+        assert np.array_equal(coordinates[path], ref.coordinates[ref.path(i)])
+
+
 def test_spurs_of_a_wide_brush_are_pruned(tmp_path: Path) -> None:
     img = line(page(), [(60, 150), (340, 150)], width=18)  # a fat bar: ends grow spurs
     strokes = trace_picture(read_picture(save(tmp_path, img)), varying_width=True).strokes

@@ -1,8 +1,8 @@
 """Benchmark of tracing a picture (:mod:`inkmotion.tracing`): a recorded tag rendered as a
 1000 × 1000 scan (8 px ink, blur, grain, light falling off, JPEG 70: the picture
 benchmark's 'scan' setting), decoded and traced. The first trace of a process includes
-the compilation of skan's numba graph code (once per process: a worker pays it once);
-the figure with the target is the median of the next ones."""
+the first imports and calls of the libraries it uses (scikit-image's skeleton and pixel
+graph, OpenCV, shapely); the figure with the target is the median of the next ones."""
 
 from __future__ import annotations
 

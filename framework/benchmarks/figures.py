@@ -45,8 +45,8 @@ FIGURES: dict[str, tuple[str, str]] = {
     # extraction
     "extraction_s": ("s", "decode and trace a 1000 × 1000 scan of a tag (8 px ink, JPEG 70), "
                           "median of 5 after the first"),
-    "extraction_first_s": ("s", "the first trace of a process: skan compiles its numba "
-                                "code (once per process)"),
+    "extraction_first_s": ("s", "the first trace of a process: its libraries' first "
+                                "imports and calls"),
     "extraction_decode_s": ("s", "of extraction_s, decoding and the ink map"),
     "extraction_strokes": ("", "strokes traced in that scan"),
     # fit

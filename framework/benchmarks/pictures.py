@@ -16,7 +16,8 @@ Scores (fitted motion against the true trace, both on the fit's canvas):
 - order: the share of pairs of true strokes that the motion reaches in their recorded
   order (each stroke's median arrival time; 'n/a' for one stroke);
 - plan size m, T_end ratio, Δt at a bound, extraction seconds (in the fit process, so the
-  first extraction of a process, numba's compilation in skan included), wall seconds;
+  first extraction of a process, its libraries' first imports and calls included), wall
+  seconds;
 - with ``--varying-width``, the IoU of the rendered motion and the picture's ink.
 """
 

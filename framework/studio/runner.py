@@ -156,21 +156,16 @@ def _ignore_ctrl_c() -> None:
 
 
 def warm_up() -> None:
-    """Run a 2-step fit of one letter into a temporary folder and compile skan's graph
-    code: the imports (torch, the plugins, rerun) and the first calls of a job cost about
-    4 s once per process, and 3 s more for a picture's first trace; paid here, the first
-    Fit pressed shows progress at once."""
+    """Run a 2-step fit of one letter into a temporary folder: the imports (torch, the
+    plugins, rerun) and the first calls of a job cost about 4 s once per process; paid
+    here, the first Fit pressed shows progress at once."""
     import tempfile
-
-    import numpy as np
-    from skan import Skeleton
 
     from inkmotion.jobs.shell import run_job
 
     with tempfile.TemporaryDirectory(prefix="inkmotion-warm-up-") as folder:
         run_job(JobSpec(kind="fit", inputs={"drawing": "text:a"}, params={"steps": 2}),
                 Path(folder) / "out", record=True)
-    Skeleton(np.eye(8, dtype=bool))  # a picture's first trace compiles this
 
 
 def default_slots(threads: int) -> int:

@@ -2,8 +2,9 @@
 formed, directed and ordered the way a hand draws them.
 
 1. **Centrelines**: the mask's skeleton (:func:`skimage.morphology.skeletonize`) as a graph
-   of paths between tips and junctions (:class:`skan.Skeleton`); the ink's radius along it
-   is the distance transform (OpenCV's, exact) less half a pixel.
+   of paths between tips and junctions (:func:`skeleton_paths`: scikit-image's pixel graph,
+   split into paths as :class:`skan.Skeleton` splits it); the ink's radius along it is the
+   distance transform (OpenCV's, exact) less half a pixel.
 2. **Graph**: junction pixels joined by a path shorter than :data:`MERGE` ink radii are
    one junction (a crossing skeletonises into two forks a few pixels apart), and so are two
    forks further apart whose arms read as two lines crossing at a shallow angle
@@ -128,6 +129,58 @@ def stroke_graph(mask: np.ndarray) -> StrokeGraph:
     return StrokeGraph(_ordered(strokes), junctions, tips, spurs, loops, len(dots))
 
 
+def skeleton_paths(skeleton: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The skeleton's pixels (N, 2) as (row, col), each one's degree (N,), and its paths:
+    pixel index arrays from a tip or junction pixel through pixels of degree 2 to the next
+    tip or junction, then each isolated cycle from its first pixel back to it.
+
+    The graph of 8-neighbours is scikit-image's :func:`~skimage.graph.pixel_graph`, with the
+    edges among a cluster of junction pixels cut to their minimum spanning tree; paths are
+    walked in pixel order. That is :class:`skan.Skeleton`'s graph and its paths, in its
+    order (tests/test_tracing.py compares them), without skan's path builder, a numba
+    function compiled anew in every process (3–4 s before a process's first trace) and
+    skan's imports (pandas, networkx: 1.3 s)."""
+    from scipy.sparse import csgraph
+    from skimage.graph import pixel_graph
+
+    graph, pixels = pixel_graph(skeleton, mask=skeleton.astype(bool), connectivity=2)
+    degrees = np.diff(graph.indptr)
+    junction = degrees >= 3
+    among = graph.tocoo()
+    keep = junction[among.row] & junction[among.col]
+    if keep.any():  # a cluster of junction pixels: its edges cut to a spanning tree
+        from scipy.sparse import coo_matrix
+
+        cluster = coo_matrix((among.data[keep], (among.row[keep], among.col[keep])),
+                             shape=graph.shape).tocsr()
+        cluster.sort_indices()
+        tree = csgraph.minimum_spanning_tree(cluster)
+        graph = (graph - (cluster - (tree + tree.T))).tocsr()
+        graph.eliminate_zeros()
+        degrees = np.diff(graph.indptr)
+    neighbours = np.split(graph.indices, graph.indptr[1:-1])
+    visited: set[tuple[int, int]] = set()
+
+    def walk(node: int, step: int) -> np.ndarray:
+        path, start = [node], node
+        while (node, step) not in visited:
+            visited.add((node, step))
+            visited.add((step, node))
+            path.append(step)
+            if degrees[step] != 2 or step == start:
+                break
+            first, second = neighbours[step]
+            node, step = step, int(second if first == node else first)
+        return np.asarray(path)
+
+    paths = [walk(node, int(n)) for node in np.flatnonzero(degrees != 2).tolist()
+             for n in neighbours[node] if (node, int(n)) not in visited]
+    paths += [walk(node, int(neighbours[node][0])) for node in range(len(degrees))
+              if degrees[node] > 0 and (node, int(neighbours[node][0])) not in visited]
+    rows, cols = np.unravel_index(pixels, skeleton.shape)
+    return np.column_stack((rows, cols)), degrees, paths
+
+
 @dataclass
 class _Branch:
     """A skeleton path: points (k, 2) as (x, y), its end nodes, and whether it is kept."""
@@ -162,17 +215,14 @@ class _Node:
 
 def _branches(skeleton: np.ndarray, radius: np.ndarray
               ) -> tuple[list[_Branch], dict[int, _Node]]:
-    """The skeleton's paths (skan) and their end nodes, junction pixels merged (step 2)."""
+    """The skeleton's paths (:func:`skeleton_paths`) and their end nodes, junction pixels
+    merged (step 2)."""
     if skeleton.sum() < 2:
         return [], {}
-    from skan import Skeleton
-
-    sk = Skeleton(skeleton)
-    degrees = sk.degrees
+    coordinates, degrees, paths = skeleton_paths(skeleton)
     raw = []
-    for i in range(sk.n_paths):
-        ids = sk.path(i)
-        rc = sk.coordinates[ids]
+    for ids in paths:
+        rc = coordinates[ids]
         raw.append((rc[:, ::-1].astype(np.float64) + 0.5, int(ids[0]), int(ids[-1])))
     union = _Union()
     absorbed = set()
