@@ -15,12 +15,13 @@ formed, directed and ordered the way a hand draws them.
    angle under :data:`CUSP`, it is the point of a cusp, drawn out and back.
 3. **Strokes**: at every junction the branch ends are paired straightest first, a pair
    taken while it bends by less than :data:`STRAIGHT` (a stroke goes straight through a
-   crossing), then the ends left are paired, straightest first, however sharply they turn
-   (a hand turns at a corner, even one as sharp as an R's leg leaving its bowl or a Z's,
-   rather than lift the pen); a junction of two ends always joins them. Paired branches
-   chain into strokes; a chain that comes back to its start is a loop. At a junction a
-   chain passes through, the skeleton's wobble is cut out (the points within the
-   junction's radius) and the two sides joined.
+   crossing), then the ends left are paired, straightest first, while they bend by less
+   than :data:`TURN` (a hand turns at a corner, even one as sharp as an R's leg leaving
+   its bowl, rather than lift the pen; a sharper reversal at a junction, a hairpin, is
+   where one stroke ends and another begins); a junction of two ends always joins them.
+   Paired branches chain into strokes; a chain that comes back to its start is a loop.
+   At a junction a chain passes through, the skeleton's wobble is cut out (the points
+   within the junction's radius) and the two sides joined.
 4. **Direction and order**: an open stroke begins at the end a writer begins at: the top
    one (strokes are pulled down) unless the stroke is nearly level, then the left one
    (smaller :data:`ACROSS_WEIGHT` · x + y); a loop begins at its top and runs
@@ -58,6 +59,10 @@ CROSSING_BEND = 30.0
 SPUR = 1.6
 #: branch ends at a junction that bend by less than this (degrees) continue each other
 STRAIGHT = 50.0
+#: ends left over at a junction are joined while they bend by less than this (degrees): an
+#: R's leg leaves its bowl at 135°; a hairpin sharper than this is two strokes (a fit
+#: rounds such a reversal off unless it spends time and targets on it)
+TURN = 140.0
 #: how much further left counts as much as higher up when choosing where a stroke begins:
 #: a stroke starts at its top end (strokes are pulled down) unless it rises by less than
 #: this share of its width (then at its left end)
@@ -391,7 +396,7 @@ def _pairs(nodes: dict[int, _Node], branches: list[_Branch]
         options = sorted((_bend(dirs[a], dirs[b]), i, j)
                          for i, a in enumerate(ends) for j, b in enumerate(ends) if i < j)
         free = set(ends)
-        for limit in (STRAIGHT, math.inf):
+        for limit in (STRAIGHT, TURN):
             for bend, i, j in options:
                 a, b = ends[i], ends[j]
                 if bend < limit and a in free and b in free:
