@@ -132,7 +132,10 @@ def test_fit_jobs_run_together_report_each_its_own_fit(tmp_path):
     for k, (one, many) in enumerate(zip(alone, together, strict=True)):
         assert many["batch"] == 4 and many["moves"] == one["moves"]
         for term, value in one["initial_loss"].items():
-            assert many["initial_loss"][term] == pytest.approx(value, rel=1e-5, abs=1e-6)
+            # float32 sums of a few hundred terms in another order (index_add per drawing
+            # against one sum): up to a few 1e-5 apart, the trace term's log-mean-exp of
+            # its worst misses the furthest
+            assert many["initial_loss"][term] == pytest.approx(value, rel=5e-5, abs=1e-6)
         assert abs(many["chamfer_mean_px"] - one["chamfer_mean_px"]) < 0.35
         saved = json.loads((tmp_path / f"together{k}" / "report.json").read_text())
         assert saved["chamfer_max_px"] == many["chamfer_max_px"]

@@ -15,7 +15,7 @@ from inkmotion.cli.kind_commands import spec_from_options
 from inkmotion.errors import PluginError, SpecError
 from inkmotion.jobs.kind import resolve
 from inkmotion.jobs.params import to_dict
-from inkmotion.jobs.spec import JobSpec, upgrade_v1
+from inkmotion.jobs.spec import SPEC_VERSION, JobSpec, upgrade_v1
 from inkmotion.plugin_host import PluginHost, hookimpl, host
 
 V1 = Path(__file__).parent / "data" / "v1_job"
@@ -48,7 +48,8 @@ def test_v1_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     assert_same_motion(tmp_path / "o" / "plan.json", V1 / "plan.json")
     written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
-    assert written["version"] == 5 and written["params"]["initialiser"]["threshold"] == 1.0
+    assert written["version"] == SPEC_VERSION
+    assert written["params"]["initialiser"]["threshold"] == 1.0
     assert written["params"]["initialiser"]["bend"] is False
     assert written["params"]["refine"] == 0 and written["params"]["smooth_over"] == "path"
 
@@ -64,7 +65,7 @@ def test_v3_job_json_reproduces_its_plan(tmp_path: Path) -> None:
     assert_same_motion(tmp_path / "o" / "plan.json", V3 / "plan.json",
                        BLIND_EDITS_TOLERANCE_PX)
     written = json.loads((tmp_path / "o" / "job.json").read_text())["spec"]
-    assert written["version"] == 5
+    assert written["version"] == SPEC_VERSION
     assert written["params"]["w_trace"] == 0.0 and written["params"]["rollback"] is False
     assert written["params"]["keep_corners"] is False
     assert written["params"]["sparsity"] == "budget" and written["params"]["tolerance"] == 0
@@ -76,11 +77,11 @@ def test_v3_job_json_reproduces_its_plan(tmp_path: Path) -> None:
 def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     """A version-2 spec that leaves the changed defaults out runs with version 2's (declared
     on the parameters, ``earlier``); one that gives them keeps what it gives; other kinds
-    are unchanged; job.json spells them out as version 5."""
+    are unchanged; job.json spells them out as the current version."""
     def full(spec: dict) -> dict:
         job = resolve(JobSpec.from_dict(spec), check_inputs=False)
         written = job.full_spec()
-        assert written.version == 5
+        assert written.version == SPEC_VERSION
         return written.params
 
     bare = full({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
@@ -100,6 +101,9 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     v3 = full({"version": 3, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     assert v3["steps"] == 600 and v3["smooth_over"] == "drawing" and v3["w_trace"] == 0.0
     assert v3["initialiser"]["threshold"] is None and v3["initialiser"]["bend"] is True
+    v5 = full({"version": 5, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    v6 = full({"version": 6, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    assert v5["w_worst"] == 0.0 and v6["w_worst"] == 1.0  # the worst misses: version 6 on
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
 
@@ -140,8 +144,9 @@ def test_bad_spec_fields() -> None:
         resolve(JobSpec("fit", {}))
     with pytest.raises(SpecError, match="has no input.s. photo"):
         resolve(JobSpec("fit", {"drawing": "text:hi", "photo": "x.png"}))
-    with pytest.raises(SpecError, match="spec version 6 is not supported"):
-        JobSpec.from_dict({"version": 6, "kind": "fit", "inputs": {}})
+    later = SPEC_VERSION + 1
+    with pytest.raises(SpecError, match=f"spec version {later} is not supported"):
+        JobSpec.from_dict({"version": later, "kind": "fit", "inputs": {}})
     with pytest.raises(SpecError, match="seed=-1 must be a non-negative integer"):
         JobSpec.from_dict({"version": 2, "kind": "fit", "inputs": {}, "seed": -1})
 
@@ -164,7 +169,7 @@ def test_config_then_options_override(tmp_path: Path) -> None:
     assert spec.params["initialiser"] == {"name": "dce", "threshold": 1.0}
     assert spec.version == 2  # the version-1 file keeps the defaults of its day
     full = resolve(spec, check_inputs=False).full_spec()
-    assert full.version == 5 and full.params["steps"] == 7
+    assert full.version == SPEC_VERSION and full.params["steps"] == 7
     assert full.params["initialiser"]["bend"] is False and full.params["refine"] == 0
 
 

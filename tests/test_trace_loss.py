@@ -71,6 +71,64 @@ def test_the_term_is_small_on_the_trace_and_grows_with_a_detour() -> None:
     assert float(step @ (P_SHAPE[3] - off_points[3])) > 0  # downhill is back to the trace
 
 
+#: a stroke with a spike: up to a point 30 px above the line and straight back down
+SPIKE = np.array([[20, 100], [100, 100], [104, 70], [108, 100], [200, 100]], float)
+
+
+def _spike_cut(worst: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The trace term (worst-miss weight ``worst``) of a plan that runs along the line and
+    cuts the spike off (its tip 30 px away), and its gradient w.r.t. the plan's targets."""
+    line = _plan(np.array([[20, 100], [104, 98], [200, 100]], float))
+    ref = TraceReference.of([SPIKE], dtype=torch.float64, device="cpu")
+    loss = TraceLoss(ref, ref.ownership([sample(line).positions]), worst=worst)
+    batch = PlanBatch.from_plans([line])
+    pts = batch.points.clone().requires_grad_(True)
+    value = _value(loss, PlanBatch(pts, batch.delta_t, batch.delta, batch.ac, batch.T,
+                                   batch.moves, batch.widths))
+    value.backward()
+    return value.detach(), pts.grad, pts.detach()
+
+
+def test_the_worst_misses_pull_a_cut_spike_out_to_its_tip() -> None:
+    """A spike's tip is a few recall points among many: in the mean they lose to the
+    rest of the line, and the middle target is pulled down onto it, away from the tip;
+    weighed as the worst misses (a soft maximum beyond 3 px), they pull it up towards the
+    tip, and the term grows by about the size of the miss."""
+    plain, plain_grad, _ = _spike_cut(0.0)
+    worst, worst_grad, _ = _spike_cut(1.0)
+    up = np.array([0.0, -1.0])  # towards the tip (y down)
+    assert float(-plain_grad[1].numpy() @ up) < 0
+    assert float(-worst_grad[1].numpy() @ up) > 0.5
+    assert 10.0 < float(worst - plain) < 30.0  # ~ the tip's distance less 3 px
+
+
+def test_the_worst_misses_cost_nothing_within_a_pen_width() -> None:
+    """A plan within 3 px of every input point: the worst-miss part adds nothing."""
+    near = _plan(P_SHAPE + np.array([1.5, -1.0]))
+    ref = TraceReference.of([P_SHAPE], dtype=torch.float64, device="cpu")
+    owners = ref.ownership([sample(near).positions])
+    batch = PlanBatch.from_plans([near])
+    plain = _value(TraceLoss(ref, owners), batch)
+    worst = _value(TraceLoss(ref, owners, worst=1.0), batch)
+    assert float(worst) == pytest.approx(float(plain), abs=1e-9)
+
+
+def test_a_union_weighs_each_drawings_worst_misses_as_its_own_term_does() -> None:
+    """Two drawings fitted together: the union's value for each is its own term's, the
+    soft maximum taken over its own points only."""
+    cut = _plan(np.array([[20, 100], [104, 98], [200, 100]], float))
+    near = _plan(P_SHAPE + np.array([1.5, -1.0]))
+    own = []
+    for stroke, plan in ((SPIKE, cut), (P_SHAPE, near)):
+        ref = TraceReference.of([stroke], dtype=torch.float64, device="cpu")
+        own.append(TraceLoss(ref, ref.ownership([sample(plan).positions]), worst=1.0))
+    union = TraceLoss.union(own, [1, 1])
+    values = _value(union, PlanBatch.from_plans([cut, near]))
+    for b, (loss, plan) in enumerate(zip(own, (cut, near), strict=True)):
+        alone = _value(loss, PlanBatch.from_plans([plan]))
+        assert float(values[b]) == pytest.approx(float(alone), rel=1e-9, abs=1e-9)
+
+
 def test_a_stroke_is_matched_only_to_the_paths_that_follow_it() -> None:
     """The crossing stroke's path does not count as covering the P (and vice versa): a P
     path that skips its bowl pays for it even where the crossing stroke passes nearby."""

@@ -21,6 +21,20 @@ far miss pulls with a bounded force and cannot swamp the smoothing cost). The fi
 is the recall (every part of the input is drawn), the second the precision (the pen stays
 on the input); together they are a smooth symmetric Chamfer distance.
 
+Worst misses (spec version 6 on, the fit's ``--w-worst`` w). A mean weighs a cusp's tip
+or a hook's end that the fit cuts short by its handful of points among hundreds: too
+little to pull against the smoothing cost, which rounds a sharp reversal off. A third part
+weighs the recall's worst misses:
+
+    w · T · log mean_{q ∈ Q} exp(ρ(e(q)) / T),   e(q) = max(0, d(q, C) − d₀)
+
+a soft maximum (temperature T = ``WORST_SCALE`` px) of how far each input point lies
+beyond d₀ = ``WORST_FROM`` px, the width of a pen, within which a miss is not one a person
+would see (the 'hand' sparsity's threshold for a new target). It is 0 while every point is
+within d₀, where the smoothing cost alone makes the motion rapid; beyond it, its gradient
+goes to the points in proportion to exp(ρ/T), so one miss that stands out by several T
+pulls as hard as the whole rest of the trace.
+
 Which path may cover which stroke. A pen path drawn through one stroke should not take the
 ink of another stroke that crosses it. A stroke is *owned* by the paths whose initial
 trajectory runs along it (at least half of its points within ``own_within`` px); a
@@ -66,6 +80,10 @@ BAND_MIN_PX = 20.0
 BAND_SHARE = 0.15
 #: px², the start of a min over pairs (larger than any canvas's squared diagonal)
 FAR = 1e12
+#: px, T of the worst misses' soft maximum (module docstring)
+WORST_SCALE = 2.0
+#: px, d₀: a miss counts among the worst only beyond this (the width of a pen)
+WORST_FROM = 3.0
 
 
 def simplify(stroke: np.ndarray, tolerance: float = 0.25) -> np.ndarray:
@@ -241,11 +259,16 @@ class TraceLoss:
 
     def __init__(self, reference: TraceReference, owners: torch.Tensor,
                  scale: float | None = None, refresh: int = 20, reach: int = 2,
-                 tolerance: float = 0.0) -> None:
+                 tolerance: float = 0.0, worst: float = 0.0) -> None:
         self.ref = reference
         scale = HUBER_SCALE * reference.unit if scale is None else scale
         #: canvas px within which a distance costs nothing: ρ(max(0, d − tolerance))
         self.tolerance = float(tolerance)
+        #: w of the worst misses' soft maximum (module docstring; 0: none), its T and d₀
+        #: in canvas px
+        self.worst = float(worst)
+        self.worst_scale = WORST_SCALE * reference.unit
+        self.worst_from = WORST_FROM * reference.unit
         self.owners = owners.cpu().numpy()  # (n_strokes, P) bool
         self.scale = scale
         self.refresh, self.reach = refresh, reach
@@ -276,7 +299,8 @@ class TraceLoss:
             assert t.owners.shape[1] == paths, (t.owners.shape, paths)
             owners[row:row + t.owners.shape[0], col:col + paths] = t.owners
             row, col = row + t.owners.shape[0], col + paths
-        joined = cls(ref, torch.as_tensor(owners), first.scale, first.refresh, first.reach)
+        joined = cls(ref, torch.as_tensor(owners), first.scale, first.refresh, first.reach,
+                     first.tolerance, first.worst)
         device = ref.points.device
         items = len(losses)
         joined._union = _Union(
@@ -402,9 +426,10 @@ class TraceLoss:
         lo, hi = first[nearest][:, None], last[nearest][:, None]
         return torch.minimum(torch.maximum(nearest[:, None] + self._offsets, lo), hi)
 
-    def _beyond(self, d2: torch.Tensor) -> torch.Tensor:
-        """max(0, d − tolerance)² of squared distances ``d2`` (zero gradient inside)."""
-        return (d2.clamp_min(1e-12).sqrt() - self.tolerance).clamp_min(0.0).square()
+    @staticmethod
+    def _beyond(d2: torch.Tensor, within: float) -> torch.Tensor:
+        """max(0, d − within)² of squared distances ``d2`` (zero gradient inside)."""
+        return (d2.clamp_min(1e-12).sqrt() - within).clamp_min(0.0).square()
 
     def __call__(self, segments: torch.Tensor, layout: GridLayout,
                  step: int | None = None) -> torch.Tensor:
@@ -438,14 +463,27 @@ class TraceLoss:
         s2 = self.scale * self.scale
         recall, precision = recall.view(-1, w).amin(1), precision.view(-1, w).amin(1)
         if self.tolerance > 0:  # squared distances beyond the tolerance band
-            recall, precision = self._beyond(recall), self._beyond(precision)
+            recall = self._beyond(recall, self.tolerance)
+            precision = self._beyond(precision, self.tolerance)
+        worst = None
+        if self.worst > 0:  # ρ(e) / T of every recall point (module docstring)
+            excess = self._beyond(recall, self.worst_from)
+            worst = ((excess + s2).sqrt() - self.scale) / self.worst_scale
         recall = (recall + s2).sqrt()  # (K,) ρ + s
         precision = (precision + s2).sqrt()  # (2S,) ρ + s
         if self._union is not None:  # each drawing's own means (B,)
             u = self._union
-            return (u.mean(recall, u.point_item) + u.mean(precision, u.sample_item)
-                    - 2.0 * self.scale) / self.ref.unit
-        return (recall.mean() + precision.mean() - 2.0 * self.scale) / self.ref.unit
+            total = u.mean(recall, u.point_item) + u.mean(precision, u.sample_item)
+            if worst is not None:
+                total = total + self.worst * self.worst_scale * u.log_mean_exp(
+                    worst, u.point_item)
+            return (total - 2.0 * self.scale) / self.ref.unit
+        total = recall.mean() + precision.mean()
+        if worst is not None:
+            top = worst.detach().max()
+            total = total + self.worst * self.worst_scale * (
+                top + (worst - top).exp().mean().log())
+        return (total - 2.0 * self.scale) / self.ref.unit
 
 
 @dataclass
@@ -466,3 +504,11 @@ class _Union:
         zeros = values.new_zeros(self.items)
         return zeros.index_add(0, item, values) / zeros.index_add(0, item,
                                                                    torch.ones_like(values))
+
+    def log_mean_exp(self, values: torch.Tensor, item: torch.Tensor) -> torch.Tensor:
+        """Each drawing's log mean exp of ``values`` (n,) (B,), shifted by its own largest
+        value (detached: the shift cancels, exactly, in value and gradient), as a drawing
+        alone computes it."""
+        top = values.detach().new_full((self.items,), -math.inf).scatter_reduce(
+            0, item, values.detach(), "amax")
+        return top + (self.mean((values - top[item]).exp(), item)).log()

@@ -40,11 +40,17 @@ class FitParams(OptimisationParams):
     the same fit; λ = 60 made strokes of temptTag-2010_7_29 swap ink, max 28 px), the
     smoothing cost over the whole drawing, and two rounds of plan edits. Each field's
     ``earlier`` holds the defaults of older spec versions (2: the authors' objective and
-    no plan edits; 3: no trace term, every edit kept, merges blind to corners)."""
+    no plan edits; 3: no trace term, every edit kept, merges blind to corners; 4: plan
+    edits on a budget, no tolerance; 5: no weight on the trace's worst misses)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
                            minimum=0, earlier={3: 0.0})
+    w_worst: float = param(1.0, "Weight of the trace term's worst misses: a soft maximum "
+                           "(2 px) of how far the input lies from the motion beyond a pen's "
+                           "width (3 px at 350), so a cusp or a hook the fit cuts short pulls "
+                           "as hard as the rest of the trace (0: mean distances alone).",
+                           minimum=0, earlier={5: 0.0})
     smooth_over: str = param("pooled", "The minimum-time cost: 'pooled' (ΣT_end/Σm and one "
                              "Var(Δt) over all the drawing's overlaps), 'drawing' (ΣT_end/Σm, "
                              "Var(Δt) per path, averaged) or 'path' (the authors': mean over "
@@ -186,7 +192,8 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
             renderer, traces.strokes, width + 2 * tolerance, canvas, dtype, job.device)
     objective = Objective(renderer, image_losses(job, Reference(image=within)), canvas,
                           p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace),
-                          trace=_trace_term(traces, plans, dtype, job.device, tolerance)
+                          trace=_trace_term(traces, plans, dtype, job.device, tolerance,
+                                            p.w_worst)
                           if p.w_trace > 0 else None)
     job.start(canvas, target, traces.strokes)
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
@@ -292,9 +299,10 @@ def _targets_note(p: FitParams, plans: list) -> str | None:
 
 
 def _trace_term(traces: Any, plans: list, dtype: Any, device: Any,
-                tolerance: float = 0.0) -> Any:
+                tolerance: float = 0.0, worst: float = 0.0) -> Any:
     """The trace term of the fit (:mod:`inkmotion.fitting.trace_loss`), each stroke owned by
-    the paths whose initial trajectory follows it, free within ``tolerance`` canvas px."""
+    the paths whose initial trajectory follows it, free within ``tolerance`` canvas px,
+    its worst misses weighed by ``worst``."""
     from inkmotion.fitting.quality import REFERENCE_SIZE
     from inkmotion.fitting.trace_loss import TraceLoss, TraceReference
     from inkmotion.outputs.sampling import on_cpu, sample
@@ -303,7 +311,7 @@ def _trace_term(traces: Any, plans: list, dtype: Any, device: Any,
     reference = TraceReference.of(traces.validated().strokes, dtype=dtype, device=device,
                                   unit=unit)
     owners = reference.ownership([sample(on_cpu(p)).positions for p in plans])
-    return TraceLoss(reference, owners, tolerance=tolerance)
+    return TraceLoss(reference, owners, tolerance=tolerance, worst=worst)
 
 
 def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
