@@ -217,6 +217,17 @@ def test_lines_of_text_are_read_top_to_bottom(tmp_path: Path) -> None:
     assert starts[2][1] > 250
 
 
+def test_marks_above_a_long_tail_come_before_it(tmp_path: Path) -> None:
+    # a tag's small marks up on the right and its big letter, whose tail reaches far
+    # down: their heights overlap a little, their middle halves do not, so the marks
+    # are a line above the letter's and come first (a hand writes them first)
+    img = line(page((400, 420)), [(200, 130), (60, 130), (60, 380), (200, 380)])
+    img = line(img, [(250, 140), (250, 60), (330, 60), (330, 140)])
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 2
+    assert strokes[0][:, 0].min() > 240 and strokes[1][:, 0].min() < 70
+
+
 def test_touching_strokes_keep_their_ends(tmp_path: Path) -> None:
     img = line(page(), [(60, 100), (200, 160)])
     img = line(img, [(200, 160), (340, 100)])  # a V lying on its side: one stroke

@@ -26,7 +26,8 @@ formed, directed and ordered the way a hand draws them.
    one (strokes are pulled down) unless the stroke is nearly level, then the left one
    (smaller :data:`ACROSS_WEIGHT` · x + y); a loop begins at its top and runs
    counter-clockwise on the page, as the Latin script's o. Strokes are ordered in lines,
-   top to bottom, each line left to right (by the stroke's left edge).
+   top to bottom, each line left to right (by the stroke's left edge); strokes are in one
+   line when the middle halves of their heights overlap (:data:`CORE_TRIM`).
 5. **Dots**: ink that no stroke passes through is a dab, a stroke of two points across
    the blob, when it is at least as big as a dab of the drawing's pen; smaller specks
    (and any stroke within one) are noise and are dropped.
@@ -73,6 +74,9 @@ CUSP = 60.0
 CUSP_REACH = 14.0
 #: window (samples) of the moving average that smooths the skeleton's staircase
 SMOOTH = 5
+#: share of a stroke's height trimmed off its top and its bottom to make the core by which
+#: strokes fall into lines (:func:`_ordered`): the middle half of each
+CORE_TRIM = 0.25
 
 
 @dataclass
@@ -566,14 +570,18 @@ def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
 
 def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
     """Strokes in lines top to bottom, each line left to right by the stroke's left edge
-    (module docstring, step 4): a line is a run of strokes whose vertical extents overlap
-    (a tag, however it sprawls, is one line; lines of text are apart)."""
+    (module docstring, step 4): a line is a run of strokes whose vertical cores (their
+    extent less :data:`CORE_TRIM` of their height at each end) overlap. A tag's letters
+    are one line; lines of text are apart; and a long tail reaching down from a word
+    does not pull the marks above it into its line, which are drawn first."""
     boxes = [(s[:, 0].min(), s[:, 1].min(), s[:, 0].max(), s[:, 1].max()) for s in strokes]
+    cores = [(top + CORE_TRIM * (low - top), low - CORE_TRIM * (low - top))
+             for _, top, _, low in boxes]
     lines: list[list[int]] = []
     bottom = -math.inf
-    for i in sorted(range(len(strokes)), key=lambda i: boxes[i][1]):
-        if boxes[i][1] > bottom:
+    for i in sorted(range(len(strokes)), key=lambda i: cores[i][0]):
+        if cores[i][0] > bottom:
             lines.append([])
         lines[-1].append(i)
-        bottom = max(bottom, boxes[i][3])
+        bottom = max(bottom, cores[i][1])
     return [strokes[i] for line in lines for i in sorted(line, key=lambda i: boxes[i][0])]
