@@ -28,6 +28,8 @@ weighs the recall's worst misses:
 
     w · T · log mean_{q ∈ Q} exp(ρ(e(q)) / T),   e(q) = max(0, d(q, C) − d₀)
 
+(d less any tolerance τ, as above)
+
 a soft maximum (temperature T = ``WORST_SCALE`` px) of how far each input point lies
 beyond d₀ = ``WORST_FROM`` px, the width of a pen, within which a miss is not one a person
 would see (the 'hand' sparsity's threshold for a new target). It is 0 while every point is
