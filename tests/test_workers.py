@@ -12,6 +12,7 @@ from plan_compare import assert_same_motion
 from service_fixtures import inkmotion_cli, wait_for
 
 from inkmotion import store
+from inkmotion.jobs.spec import SPEC_VERSION
 
 pytestmark = pytest.mark.services
 
@@ -90,7 +91,7 @@ def test_file_input_is_copied_into_the_job(workers, service_env, tmp_path):
     r = store.get_job(job_id)
     copy = (Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "input" / "drawing"
             / "tag.gml")
-    assert r.spec["version"] == 5 and r.spec["inputs"] == {"drawing": str(copy)}
+    assert r.spec["version"] == SPEC_VERSION and r.spec["inputs"] == {"drawing": str(copy)}
     assert copy.read_bytes() == (DATA / "tag.gml").read_bytes()
     assert r.metrics and r.metrics["moves"] > 0 and r.metrics["chamfer_mean_px"] >= 0
 
