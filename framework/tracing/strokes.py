@@ -149,7 +149,7 @@ def skeleton_paths(skeleton: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[n
     order (tests/test_tracing.py compares them), without skan's path builder, a numba
     function compiled anew in every process (3–4 s before a process's first trace) and
     skan's imports (pandas, networkx: 1.3 s)."""
-    from scipy.sparse import csgraph
+    from scipy.sparse import coo_matrix, csgraph
     from skimage.graph import pixel_graph
 
     graph, pixels = pixel_graph(skeleton, mask=skeleton.astype(bool), connectivity=2)
@@ -158,8 +158,6 @@ def skeleton_paths(skeleton: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[n
     among = graph.tocoo()
     keep = junction[among.row] & junction[among.col]
     if keep.any():  # a cluster of junction pixels: its edges cut to a spanning tree
-        from scipy.sparse import coo_matrix
-
         cluster = coo_matrix((among.data[keep], (among.row[keep], among.col[keep])),
                              shape=graph.shape).tocsr()
         cluster.sort_indices()
@@ -307,17 +305,12 @@ def _crossings(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
         if span == 0.0:
             continue
         axis = axis / span
-        arms = {}
-        for node, end, along in ((a, (k, 0), -axis), (b, (k, 1), axis)):
-            ends = [e for e in node.ends if e != end]
-            dirs = [_outward(branches[i], j, node) for i, j in ends]
-            if len(ends) != 2 or any(_bend(-along, u) > CROSSING_ARM for u in dirs):
-                break
-            arms[node is b] = list(zip(ends, dirs, strict=True))
-        if len(arms) != 2:
+        a_arms = _arms_along(branches, a, (k, 0), -axis)
+        b_arms = _arms_along(branches, b, (k, 1), axis) if a_arms else None
+        if b_arms is None:
             continue
-        (a1, u1), (a2, u2) = arms[False]
-        (b1, v1), (b2, v2) = arms[True]
+        (a1, u1), (a2, u2) = a_arms
+        (b1, v1), (b2, v2) = b_arms
         bend = min(max(_bend(u1, v1), _bend(u2, v2)), max(_bend(u1, v2), _bend(u2, v1)))
         if bend >= CROSSING_BEND:
             continue
@@ -330,6 +323,17 @@ def _crossings(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
             ends[j] = a_key
             branches[i].ends = (ends[0], ends[1])
         b.ends = []
+
+
+def _arms_along(branches: list[_Branch], node: _Node, bridge_end: tuple[int, int],
+                along: np.ndarray) -> list[tuple[tuple[int, int], np.ndarray]] | None:
+    """A fork's two ends other than ``bridge_end``, each with the direction it leaves in,
+    when both leave within :data:`CROSSING_ARM` of ``along``; None otherwise."""
+    ends = [e for e in node.ends if e != bridge_end]
+    dirs = [_outward(branches[i], j, node) for i, j in ends]
+    if len(ends) != 2 or any(_bend(-along, u) > CROSSING_ARM for u in dirs):
+        return None
+    return list(zip(ends, dirs, strict=True))
 
 
 def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
