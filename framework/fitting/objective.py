@@ -131,7 +131,7 @@ class Objective:
             layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
                                                max_ac=AC_MAX)
         t_end = times[layout.block_end - 1]  # (P,) the last sample is T_end
-        kin, overflow = evaluate_kinematics(batch, times, layout)
+        kin, overflow = evaluate_kinematics(batch, times, layout, accelerations=False)
         if overflow is not None:
             self._window_overflow = overflow if self._window_overflow is None \
                 else self._window_overflow | overflow

@@ -45,7 +45,7 @@ _SQRT2PI = math.sqrt(2.0 * math.pi)
 class Kinematics(NamedTuple):
     positions: torch.Tensor  # (N, D)
     velocities: torch.Tensor  # (N, D)
-    accelerations: torch.Tensor  # (N, D)
+    accelerations: torch.Tensor | None  # (N, D); None when not asked for (a fit's step)
 
 
 def _rotate(theta: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
@@ -61,30 +61,36 @@ def submovement_terms(
     delta: torch.Tensor,  # (M,)
     sigma: torch.Tensor,  # (M,)
     mu: torch.Tensor,  # (M,)
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Displacement x_i, velocity and acceleration of each sub-movement at τ: (M, K, D) each."""
+    accelerations: bool = True,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
+    """Displacement x_i, velocity and acceleration of each sub-movement at τ: (M, K, D) each
+    (the acceleration None without ``accelerations``: a fit's step needs x and v only)."""
     phi = torch.relu(tau - EPS) + EPS
     log_phi = torch.log(phi)
     sig, mu_, dl = sigma[:, None], mu[:, None], delta[:, None]
     z = (log_phi - mu_) / sig  # (M, K)
     lam = torch.exp(-0.5 * z * z) / (sig * _SQRT2PI * phi)
     w = 0.5 * (1.0 + torch.erf(z / _SQRT2))
-    lam_dot = lam * (mu_ - sig * sig - log_phi) / (sig * sig * phi)
     h = 1.0 / torch.sinc(dl / (2.0 * math.pi))  # (M, 1)
 
     planar = d[:, :2]
     rot_theta = _rotate(dl * (w - 0.5), planar)  # R[θ] d
-    perp = torch.stack((-planar[:, 1], planar[:, 0]), dim=-1)
-    rot_theta_perp = _rotate(dl * (w - 0.5), perp)  # Ṙ[θ] d = R[θ] d⊥
     chord = (h * w * torch.sinc(dl * w / (2.0 * math.pi)))[..., None]
     x = chord * _rotate(dl * (w - 1.0) * 0.5, planar)
     v = (lam * h)[..., None] * rot_theta
-    a = (lam_dot * h)[..., None] * rot_theta + (dl * lam * lam * h)[..., None] * rot_theta_perp
+    a = None
+    if accelerations:
+        lam_dot = lam * (mu_ - sig * sig - log_phi) / (sig * sig * phi)
+        perp = torch.stack((-planar[:, 1], planar[:, 0]), dim=-1)
+        rot_theta_perp = _rotate(dl * (w - 0.5), perp)  # Ṙ[θ] d = R[θ] d⊥
+        a = ((lam_dot * h)[..., None] * rot_theta
+             + (dl * lam * lam * h)[..., None] * rot_theta_perp)
     if d.shape[1] == 3:
         dz = d[:, None, 2]
         x = torch.cat((x, (w * dz)[..., None]), dim=-1)
         v = torch.cat((v, (lam * dz)[..., None]), dim=-1)
-        a = torch.cat((a, (lam_dot * dz)[..., None]), dim=-1)
+        if a is not None:
+            a = torch.cat((a, (lam_dot * dz)[..., None]), dim=-1)
     return x, v, a
 
 
@@ -175,9 +181,12 @@ def evaluate_kinematics(
     batch: PlanBatch,
     times: torch.Tensor,  # (N,) sorted within each path's block
     layout: GridLayout,
+    accelerations: bool = True,
 ) -> tuple[Kinematics, torch.Tensor | None]:
     """Kinematics of every path of ``batch`` at its own block of sample times, and whether
     a static window is (nearly) outgrown (0-d bool on the device; None for a dynamic one).
+    Without ``accelerations`` their field is None (a fit's step: x and v are its Hermite
+    segments; the acceleration terms were a third of the forward kinematics' ops).
 
     Sub-movement i is evaluated on the K samples of its support only (gather → evaluate →
     scatter-add): K = ``layout.window`` when static (no host read; a support wider than
@@ -204,14 +213,14 @@ def evaluate_kinematics(
         idx = torch.where(valid, idx, torch.zeros_like(idx))
 
     tau = times[idx] - t0[:, None]  # (M, K)
-    x, v, a = submovement_terms(tau, d, batch.delta, sigma, mu)
+    x, v, a = submovement_terms(tau, d, batch.delta, sigma, mu, accelerations)
     mask = valid[..., None].to(x.dtype)
     flat = idx.reshape(-1)
     dim = d.shape[1]
     zeros = torch.zeros(n_total, dim, dtype=x.dtype, device=device)
     pos = zeros.index_add(0, flat, (x * mask).reshape(-1, dim))
     vel = zeros.index_add(0, flat, (v * mask).reshape(-1, dim))
-    acc = zeros.index_add(0, flat, (a * mask).reshape(-1, dim))
+    acc = None if a is None else zeros.index_add(0, flat, (a * mask).reshape(-1, dim))
 
     # completed sub-movements: +d_i from the first sample after the window to the block end
     done = torch.zeros(n_total + 1, dim, dtype=x.dtype, device=device)
