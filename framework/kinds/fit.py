@@ -35,18 +35,17 @@ class FitParams(OptimisationParams):
     where ``inkmotion benchmark`` over the real tags said otherwise, at the authors' plan
     density (DCE relevance 2.5, 29–32 sub-movements on the paper's tags): 600 steps (300
     left T_end at 0.50–0.52× and the max Chamfer at 5–7 px; 600 reach 0.47–0.49× and
-    3–4 px), λ = 60 and w_σ = 10 (the authors' w_σ = 50 forces equal overlaps along a
+    3–4 px), λ = 45 and w_σ = 10 (the authors' w_σ = 50 forces equal overlaps along a
     path, so corners and smooth runs get the same Δt: 10 lets smooth runs overlap more at
-    the same fit), the smoothing cost over the whole drawing, and two rounds of plan
-    edits. λ trades accuracy for rapidity: over the development set (21 inputs) λ = 45 /
-    60 / 80 / 120 gave T_end at or below the authors' on 10 / 14 / 16 / 19 of them, a mean
-    Chamfer of 0.367 / 0.398 / 0.417 / 0.463 px, and every goal on 17 / 17 / 17 / 13 (at
-    80 one Δt on its bound). Before the trace term, λ = 60 made strokes of
-    temptTag-2010_7_29 swap ink (max 28 px); the trace term holds them now. Each field's
+    the same fit; λ = 60 made strokes of temptTag-2010_7_29 swap ink, max 28 px, before
+    the trace term), the smoothing cost over the whole drawing, and two rounds of plan
+    edits. λ trades accuracy for rapidity: over the development set λ = 45 / 60 / 80 /
+    120 end at or below the authors' T_end on 10 / 14 / 16 / 19 of 21 inputs at a mean
+    Chamfer of 0.367 / 0.398 / 0.417 / 0.463 px, but from 60 on overlaps of two-move
+    strokes sit on their floor on some inputs (README, "Sparse motor plans"). Each field's
     ``earlier`` holds the defaults of older spec versions (2: the authors' objective and
     no plan edits; 3: no trace term, every edit kept, merges blind to corners; 4: plan
-    edits on a budget, no tolerance; 5: no weight on the trace's worst misses; 6:
-    λ = 45)."""
+    edits on a budget, no tolerance; 5: no weight on the trace's worst misses)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",

@@ -49,8 +49,8 @@ class OptimisationParams:
     steps: int = param(600, "Adam steps.", minimum=1, maximum=100_000, earlier={2: 300})
     size: int = param(350, "Canvas longer side, px.", minimum=32, maximum=4096)
     width: float = param(3.0, "Stroke width, px.", minimum=0.01, maximum=256)
-    lambda_smooth: float = param(60.0, "Weight λ of the smoothing (minimum-time) cost.",
-                                 minimum=0, flag="--lambda", earlier={6: 45.0, 2: 20.0})
+    lambda_smooth: float = param(45.0, "Weight λ of the smoothing (minimum-time) cost.",
+                                 minimum=0, flag="--lambda", earlier={2: 20.0})
     w_image: float = param(200.0, "Weight of the image loss.", minimum=0)
     w_sigma: float = param(10.0, "Weight of Var(Δt) in the smoothing cost.", minimum=0,
                            earlier={2: 50.0})
