@@ -18,6 +18,8 @@ from inkmotion.plugins.raster import RasterRenderer
 from inkmotion.rendering.raster import (
     RasterBudget,
     RasterSession,
+    capsule_coverage,
+    pixel_ranges,
     plan_budget,
     render_segments,
     render_segments_static,
@@ -245,3 +247,33 @@ def test_plugin_session_is_static_off_the_cpu() -> None:
     assert not renderer.session("cpu").static
     assert renderer.session("cuda:0").static
     assert renderer.session("cpu", static=True).static
+
+
+def test_sparse_backward_is_the_dense_graphs_gradient() -> None:
+    """The rims-only backward pass (``sparse_backward``) gives the dense graph's image and
+    gradients, a varying radius and exact ties included: a piece drawn twice shares each
+    rim pixel's gradient between its two copies, as scatter_reduce's amax does."""
+    g = torch.Generator().manual_seed(5)
+    a = torch.rand(40, 2, generator=g, dtype=torch.float64) * 50 + 5
+    b = a + torch.randn(40, 2, generator=g, dtype=torch.float64) * 2
+    a, b = torch.cat((a, a[:3])), torch.cat((b, b[:3]))  # pieces 40..42 repeat 0..2
+    r = torch.rand(43, generator=g, dtype=torch.float64) + 0.5
+    r_end = torch.rand(43, generator=g, dtype=torch.float64) + 0.5
+    r_end[40:] = r_end[:3]
+    r[40:] = r[:3]
+    c0, c1 = pixel_ranges(a, b, torch.maximum(r, r_end), 64, 64)
+    patch = tuple((c1 - c0 + 1).amax(0).tolist())
+    weights = torch.rand(64, 64, generator=g, dtype=torch.float64)
+    outs = []
+    for sparse in (False, True):
+        leaves = [t.clone().requires_grad_(True) for t in (a, b, r, r_end)]
+        img = capsule_coverage(*leaves[:3], c0, c1, patch, 64, 64, r_end=leaves[3],
+                               sparse_backward=sparse)
+        (img * weights).sum().backward()
+        outs.append([img.detach()] + [t.grad for t in leaves])
+    assert torch.equal(outs[0][0], outs[1][0])
+    for got, ref in zip(outs[1][1:], outs[0][1:], strict=True):
+        torch.testing.assert_close(got, ref, atol=1e-12, rtol=1e-10)
+    sparse_grad_a = outs[1][1]
+    assert sparse_grad_a[0].abs().sum() > 0
+    torch.testing.assert_close(sparse_grad_a[40:], sparse_grad_a[:3], atol=0, rtol=0)

@@ -286,17 +286,17 @@ def _excess(dx: torch.Tensor, dy: torch.Tensor, abx: torch.Tensor, aby: torch.Te
 
 
 class _MaxUnion(torch.autograd.Function):
-    """The image of per-pixel maxima computed without a graph, with the gradient that
-    ``scatter_reduce(..., "amax", include_self=True)`` gives its sources — the pixel's
-    gradient shared evenly among the values equal to its maximum (``share``, the paper's
-    zero counted where the maximum is 0) — for the few sources that can carry one:
-    the excess values ``x`` of the maxima inside (0, 1) of the clamp, at pixels ``pixel``."""
+    """``image``, the per-pixel maxima computed without a graph, with the gradient that
+    ``scatter_reduce(..., "amax", include_self=True)`` gives its sources: each pixel's
+    gradient shared evenly among the values equal to its maximum (``share`` of them, the
+    blank page's 0 among them where the maximum is 0), here for the only sources that can
+    carry one, ``x``: the excess r + ½ − d of each maximum within [0, 1] of the clamp, at
+    pixel ``pixel``."""
 
     @staticmethod
     def forward(ctx: Any, x: torch.Tensor, image: torch.Tensor, pixel: torch.Tensor,
                 share: torch.Tensor) -> torch.Tensor:
         ctx.save_for_backward(pixel, share)
-        ctx.shape = image.shape
         return image
 
     @staticmethod
@@ -327,10 +327,10 @@ def capsule_coverage(
     Only the patch of kx × ky pixels from c0 (clipped at c1) of each piece is evaluated.
 
     ``sparse_backward`` (reads the device): the patches are evaluated without a graph,
-    and only the pixels' maxima strictly inside the clamp — the anti-aliased rims, about
+    and only the pixels' maxima within the clamp's [0, 1] — the anti-aliased rims, about
     6 % of a fit's patch pixels — are evaluated again with one, for the backward pass: the
-    same image and, per pixel, the same gradient as the dense graph (:class:`_MaxUnion`);
-    summed into each piece in another order."""
+    same image and, per pixel, the same gradient as the dense graph (:class:`_MaxUnion`),
+    summed into each piece in another order (a fit step's render about 3 → 2 ms here)."""
     kx, ky = patch
     if a.shape[1] != 2:
         a, b = a[:, :2], b[:, :2]  # (N, 2): the radius came in r, r_end
