@@ -330,7 +330,7 @@ def capsule_coverage(
     and only the pixels' maxima within the clamp's [0, 1] — the anti-aliased rims, about
     6 % of a fit's patch pixels — are evaluated again with one, for the backward pass: the
     same image and, per pixel, the same gradient as the dense graph (:class:`_MaxUnion`),
-    summed into each piece in another order (a fit step's render about 3 → 2 ms here)."""
+    summed into each piece in another order (a fit step about 2 ms shorter here)."""
     kx, ky = patch
     if a.shape[1] != 2:
         a, b = a[:, :2], b[:, :2]  # (N, 2): the radius came in r, r_end
