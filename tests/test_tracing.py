@@ -150,6 +150,17 @@ def test_a_sharp_spike_mid_stroke_keeps_the_stroke_whole(tmp_path: Path) -> None
     assert strokes[0][:, 1].min() < 70  # reaches the point
 
 
+def test_a_narrow_v_is_drawn_down_to_its_point(tmp_path: Path) -> None:
+    # a stem straight down to the point and an arm back up at 39°, 3 px ink: the arms
+    # merge in the ink above the point, where the skeleton forks; the short tail from
+    # that fork to the point is the cusp's point, not a spur of the outline, so the
+    # stroke goes down it (the spur rule cut it: 251.7)
+    img = line(page(), [(200, 40), (200, 260), (330, 100)], width=3)
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 1, [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert strokes[0][:, 1].max() > 252.5  # towards the point (y 260): 253.3
+
+
 def test_skeleton_paths_are_skans() -> None:
     # the tracer splits scikit-image's pixel graph into paths itself (skan's path builder
     # costs seconds of numba compilation per process): the same graph and the same paths

@@ -10,9 +10,10 @@ formed, directed and ordered the way a hand draws them.
    forks further apart whose arms read as two lines crossing at a shallow angle
    (:data:`CROSSING_REACH`: a script l's loop); a branch from a junction to a tip
    shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur of the ink's
-   outline, not a stroke, and is dropped.
-   Where a branch from a tip meets a fork whose other two arms close in at an inner
-   angle under :data:`CUSP`, it is the point of a cusp, drawn out and back.
+   outline, not a stroke, and is dropped, unless it is the point of a cusp:
+   where a branch from a tip meets a fork whose other two arms close in at an inner
+   angle under :data:`CUSP`, it is drawn out and back, however short (a narrow V's arms
+   merge in the ink near its point, so the skeleton forks well before the point).
 3. **Strokes**: at every junction the branch ends are paired straightest first, a pair
    taken while it bends by less than :data:`STRAIGHT` (a stroke goes straight through a
    crossing), then the ends left are paired, straightest first, while they bend by less
@@ -273,7 +274,8 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
             a, b = (nodes[e] for e in br.ends)
             for tip, fork in ((a, b), (b, a)):
                 if tip.degree == 1 and fork.degree >= 3 and \
-                        br.length < SPUR * fork.radius + 1.0:
+                        br.length < SPUR * fork.radius + 1.0 and \
+                        not _narrow_fork(branches, fork, (k, 1 if tip is a else 0)):
                     br.kept = False
                     tip.ends.remove((k, 0 if tip is a else 1))
                     fork.ends.remove((k, 1 if tip is a else 0))
@@ -348,11 +350,8 @@ def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
         for tip, fork, fork_end in ((a, b, 1), (b, a, 0)):
             if not (tip.degree == 1 and fork.degree == 3):
                 continue
-            if br.length > CUSP_REACH * fork.radius + 2.0:
-                continue
-            others = [e for e in fork.ends if e != (k, fork_end)]
-            u, v = (_outward(branches[i], j, fork) for i, j in others)
-            if 180.0 - _bend(u, v) >= CUSP:
+            if br.length > CUSP_REACH * fork.radius + 2.0 or \
+                    not _narrow_fork(branches, fork, (k, fork_end)):
                 continue
             out = br.points if fork_end == 0 else br.points[::-1]
             br.points = np.vstack((out, out[-2::-1]))
@@ -362,6 +361,18 @@ def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
             fork.ends.remove((k, fork_end))
             fork.ends.extend([(k, 0), (k, 1)])
             break
+
+
+def _narrow_fork(branches: list[_Branch], fork: _Node, tail: tuple[int, int]) -> bool:
+    """Whether the two arms of a three-way ``fork`` other than the branch end ``tail``
+    meet at an inner angle under :data:`CUSP`: the tail is then the point of a cusp (a
+    narrow V whose arms merge in the ink near its point), however short, not a spur of
+    the outline."""
+    others = [e for e in fork.ends if e != tail]
+    if len(others) != 2:
+        return False
+    u, v = (_outward(branches[i], j, fork) for i, j in others)
+    return 180.0 - _bend(u, v) < CUSP
 
 
 def _outward(br: _Branch, end: int, node: _Node) -> np.ndarray:
