@@ -284,3 +284,32 @@ def test_concurrent_first_use_migrates_once(tmp_path):
         p.join(60)
     assert [p.exitcode for p in procs] == [0, 0, 0]
     assert store.list_jobs(db_url=url) == []
+
+
+def test_a_cancel_the_heartbeat_sees_first_stops_the_run_as_a_cancel(db_url):
+    """A cancel also fails the heartbeat's renewal (the job is no longer running): when the
+    heartbeat notices first, the progress observer still stops the run as cancelled, and
+    a job another worker took over still as a lost lease."""
+    import threading
+
+    from inkmotion.events import StepState
+    from inkmotion.workers.leases import LeaseLost
+    from inkmotion.workers.progress import JobCancelled, StoreProgressObserver
+
+    step = StepState(1, 5, {}, None)
+    cancelled = store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
+    assert store.mark_running(cancelled.id, "w1", db_url, owner="a")
+    assert store.mark_cancelled(cancelled.id, db_url)
+    lost = threading.Event()
+    assert not store.renew_lease(cancelled.id, "a", db_url)  # what the heartbeat finds
+    lost.set()
+    with pytest.raises(JobCancelled):
+        StoreProgressObserver(cancelled.id, db_url, owner="a", lost=lost).on_step(step)
+
+    taken = store.create_job({}, kind="fit", queue="optimise", db_url=db_url)
+    assert store.mark_running(taken.id, "w1", db_url, owner="a", lease_s=0.01)
+    time.sleep(0.05)
+    assert [j.id for j in store.requeue_expired(db_url)] == [taken.id]
+    assert store.mark_running(taken.id, "w2", db_url, owner="b")
+    with pytest.raises(LeaseLost):
+        StoreProgressObserver(taken.id, db_url, owner="a", lost=lost).on_step(step)

@@ -44,6 +44,13 @@ class StoreProgressObserver:
         from inkmotion.workers.leases import HandBack, LeaseLost
 
         if self.lost is not None and self.lost.is_set():
+            # the heartbeat's renewal fails for a cancel too: tell the two apart (one read)
+            try:
+                record = get_job(self.job_id, self.db_url)
+            except SQLAlchemyError:
+                raise LeaseLost(self.job_id) from None
+            if record is None or record.status == "cancelled":
+                raise JobCancelled(self.job_id)
             raise LeaseLost(self.job_id)
         if self.shutdown is not None and self.shutdown.is_set():
             if self._shutdown_seen:  # the step before checkpointed (when the kind does)
