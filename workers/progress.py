@@ -37,21 +37,32 @@ class StoreProgressObserver:
         self._last = 0.0
         self._shutdown_seen = False
 
+    def _stopped_by(self) -> Exception | None:
+        """Why this attempt must stop, read from the job's record: JobCancelled when it
+        was cancelled (or is gone), LeaseLost when another attempt owns it, else None."""
+        from inkmotion.store import get_job
+        from inkmotion.workers.leases import LeaseLost
+
+        record = get_job(self.job_id, self.db_url)
+        if record is None or record.status == "cancelled":
+            return JobCancelled(self.job_id)
+        if self.owner is not None and record.lease_owner != self.owner:
+            return LeaseLost(self.job_id)
+        return None
+
     def on_step(self, state: StepState) -> None:
         from sqlalchemy.exc import SQLAlchemyError
 
-        from inkmotion.store import get_job, update_progress
+        from inkmotion.store import update_progress
         from inkmotion.workers.leases import HandBack, LeaseLost
 
         if self.lost is not None and self.lost.is_set():
             # the heartbeat's renewal fails for a cancel too: tell the two apart (one read)
             try:
-                record = get_job(self.job_id, self.db_url)
+                reason = self._stopped_by()
             except SQLAlchemyError:
-                raise LeaseLost(self.job_id) from None
-            if record is None or record.status == "cancelled":
-                raise JobCancelled(self.job_id)
-            raise LeaseLost(self.job_id)
+                reason = None
+            raise reason or LeaseLost(self.job_id)
         if self.shutdown is not None and self.shutdown.is_set():
             if self._shutdown_seen:  # the step before checkpointed (when the kind does)
                 raise HandBack(self.job_id)
@@ -66,11 +77,7 @@ class StoreProgressObserver:
                                  None if state.t_end is None else float(state.t_end),
                                  db_url=self.db_url, owner=self.owner,
                                  lease_s=self.lease_s)
-            if not ok:
-                record = get_job(self.job_id, self.db_url)
-                if record is None or record.status == "cancelled":
-                    raise JobCancelled(self.job_id)
-                if self.owner is not None and record.lease_owner != self.owner:
-                    raise LeaseLost(self.job_id)
+            if not ok and (reason := self._stopped_by()) is not None:
+                raise reason
         except SQLAlchemyError as exc:
             log.warning("job %s: progress not recorded (%s)", self.job_id, exc)

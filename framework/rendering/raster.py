@@ -353,13 +353,12 @@ def capsule_coverage(
     ab = b - a  # (N, 2)
     inv_len2 = 1 / (ab * ab).sum(1).clamp(min=1e-12)  # (N,)
     dr = None if r_end is None else r_end - r  # (N,)
-    per_piece = lambda v, at: None if v is None else v[at]  # noqa: E731
     with torch.no_grad() if sparse else contextlib.nullcontext():
         dx = (xs.to(dtype) + 0.5 - a[:, :1])[:, None, :]  # (N, 1, kx)
         dy = (ys.to(dtype) + 0.5 - a[:, 1:])[:, :, None]  # (N, ky, 1)
         at = (slice(None), None, None)  # (N, 1, 1)
         x = _excess(dx, dy, ab[at + (0,)], ab[at + (1,)], inv_len2[at], r[at],
-                    per_piece(dr, at))  # (N, ky, kx)
+                    None if dr is None else dr[at])  # (N, ky, kx)
         cov = x.clamp(0, 1) * inside  # (N, ky, kx)
         img = torch.zeros(pages * height * width, dtype=dtype, device=dev)
         img = img.scatter_reduce(0, flat.reshape(-1), cov.reshape(-1), reduce="amax",
@@ -376,7 +375,7 @@ def capsule_coverage(
         x_rim = _excess(xs[piece, within % kx].to(dtype) + 0.5 - a[piece, 0],
                         ys[piece, within // kx].to(dtype) + 0.5 - a[piece, 1],
                         ab[piece, 0], ab[piece, 1], inv_len2[piece], r[piece],
-                        per_piece(dr, piece))  # (K,)
+                        None if dr is None else dr[piece])  # (K,)
         img = _MaxUnion.apply(x_rim, img, pixel, share[pixel])
     return img.reshape(shape)
 
