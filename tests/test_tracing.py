@@ -103,7 +103,7 @@ def test_a_cusp_is_drawn_out_to_its_point_and_back(tmp_path: Path) -> None:
     img = line(page(), [(100, 260), (200, 40), (300, 260)], width=8)
     strokes = strokes_of(tmp_path, img)
     assert len(strokes) == 1, [len(s) for s in strokes]
-    assert strokes[0][:, 1].min() < 55  # reaches the point (the spike is not pruned)
+    assert strokes[0][:, 1].min() < 42  # reaches the point (y 40): 39.7 (uncarried tip 50.1)
 
 
 def test_a_shallow_crossing_is_two_strokes_each_straight_through(tmp_path: Path) -> None:
@@ -154,11 +154,23 @@ def test_a_narrow_v_is_drawn_down_to_its_point(tmp_path: Path) -> None:
     # a stem straight down to the point and an arm back up at 39°, 3 px ink: the arms
     # merge in the ink above the point, where the skeleton forks; the short tail from
     # that fork to the point is the cusp's point, not a spur of the outline, so the
-    # stroke goes down it (the spur rule cut it: 251.7)
+    # stroke goes down it (the spur rule cut it: 251.7), and on to where the ink ends less
+    # the arms' radius (the skeleton stops where the arms merge: 253.3)
     img = line(page(), [(200, 40), (200, 260), (330, 100)], width=3)
     strokes = strokes_of(tmp_path, img)
     assert len(strokes) == 1, [s[[0, -1], :2].round().tolist() for s in strokes]
-    assert strokes[0][:, 1].max() > 252.5  # towards the point (y 260): 253.3
+    assert 259 < strokes[0][:, 1].max() < 261.5  # the point is at y 260: 260.25
+
+
+@pytest.mark.parametrize("width", [3, 9])
+def test_a_stroke_ends_where_its_ink_ends_less_its_radius(tmp_path: Path, width: int) -> None:
+    # thinning stops short of a round cap's centre (by 2.5 px at 9 px wide: 62.5, 337.5);
+    # the tip is carried on to the ink's end less the ink's radius there, never past the
+    # ink (at 15 px the skeleton itself ends 1.5-2.5 px past the centre; that is left)
+    (stroke,) = strokes_of(tmp_path, line(page(), [(60, 150), (340, 150)], width=width))
+    ends = sorted((stroke[0, 0], stroke[-1, 0]))
+    assert abs(ends[0] - 60) < 1.6 and abs(ends[1] - 340) < 1.6, ends
+    assert ends[0] > 60 - width / 2 and ends[1] < 340 + width / 2
 
 
 def test_skeleton_paths_are_skans() -> None:

@@ -10,10 +10,15 @@ formed, directed and ordered the way a hand draws them.
    forks further apart whose arms read as two lines crossing at a shallow angle
    (:data:`CROSSING_REACH`: a script l's loop); a branch from a junction to a tip
    shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur of the ink's
-   outline, not a stroke, and is dropped, unless it is the point of a cusp:
+   outline, not a stroke, and is dropped, unless its tip's ink reaches out of the
+   junction's (a stroke's end just past where thick strokes merge) or it is the point of
+   a cusp:
    where a branch from a tip meets a fork whose other two arms close in at an inner
    angle under :data:`CUSP`, it is drawn out and back, however short (a narrow V's arms
-   merge in the ink near its point, so the skeleton forks well before the point).
+   merge in the ink near its point, so the skeleton forks well before the point). Every
+   tip is carried on to where its ink ends less its radius (:func:`_extend_tips`:
+   thinning stops short of a stroke's end, most of all at a cusp's point), and the
+   smoothing keeps a cusp's point where it is.
 3. **Strokes**: at every junction the branch ends are paired straightest first, a pair
    taken while it bends by less than :data:`STRAIGHT` (a stroke goes straight through a
    crossing), then the ends left are paired, straightest first, while they bend by less
@@ -57,8 +62,11 @@ CROSSING_REACH = 16.0
 #: or a k's arm (45°) beside its stem are two junctions, not a crossing
 CROSSING_ARM = 35.0
 CROSSING_BEND = 30.0
-#: a junction-to-tip branch shorter than this × the junction's radius (+ 1 px) is a spur
+#: a junction-to-tip branch shorter than this × the junction's radius (+ 1 px) is a spur,
+#: unless its tip's ink disc pokes out of the junction's by more than REACH_OUT × its
+#: radius + 1 px (:func:`_reaches_out`)
 SPUR = 1.6
+REACH_OUT = 0.5
 #: branch ends at a junction that bend by less than this (degrees) continue each other
 STRAIGHT = 50.0
 #: ends left over at a junction are joined while they bend by less than this (degrees): an
@@ -75,6 +83,10 @@ CUSP = 60.0
 CUSP_REACH = 14.0
 #: window (samples) of the moving average that smooths the skeleton's staircase
 SMOOTH = 5
+#: a tip is carried on along the direction of its last this many ink radii (at least
+#: 3 px) of skeleton, at most :data:`TIP_REACH` radii + 2 px further (:func:`_extend_tips`)
+TIP_BACK = 2.0
+TIP_REACH = 3.0
 #: share of a stroke's height trimmed off its top and its bottom to make the core by which
 #: strokes fall into lines (:func:`_ordered`): the middle half of each
 CORE_TRIM = 0.25
@@ -128,6 +140,7 @@ def stroke_graph(mask: np.ndarray) -> StrokeGraph:
     branches, nodes = _branches(skeleton, radius)
     spurs = _drop_spurs(branches, nodes)
     _crossings(branches, nodes)
+    _extend_tips(branches, nodes, mask, radius)
     _cusps(branches, nodes)
     chains, loops = _chain(branches, nodes)
     strokes = [_stroke_points(chain, branches, nodes, radius) for chain in chains]
@@ -275,6 +288,8 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
             for tip, fork in ((a, b), (b, a)):
                 if tip.degree == 1 and fork.degree >= 3 and \
                         br.length < SPUR * fork.radius + 1.0 and \
+                        not _reaches_out(br.points[0] if tip is a else br.points[-1],
+                                         tip, fork) and \
                         not _narrow_fork(branches, fork, (k, 1 if tip is a else 0)):
                     br.kept = False
                     tip.ends.remove((k, 0 if tip is a else 1))
@@ -285,6 +300,17 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
         if not again:
             break
     return dropped
+
+
+def _reaches_out(end: np.ndarray, tip: _Node, fork: _Node) -> bool:
+    """Whether a short branch's ink reaches out of its junction's: the tip's inscribed
+    disc (its ink radius, about the stroke's own at a stroke's end, a pixel or two at an
+    outline's bump) pokes out of the junction's by more than :data:`REACH_OUT` of its
+    radius + 1 px. A stroke ending just past a junction where several thick strokes merge
+    (whose radius, the widest of the merged pixels', is then two or three strokes' radii)
+    is such a branch; a spur of the outline lies within the junction's ink."""
+    reach = float(np.hypot(*(end - fork.centre))) + tip.radius
+    return reach > fork.radius + REACH_OUT * tip.radius + 1.0
 
 
 def _crossings(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
@@ -336,6 +362,65 @@ def _arms_along(branches: list[_Branch], node: _Node, bridge_end: tuple[int, int
     if len(ends) != 2 or any(_bend(-along, u) > CROSSING_ARM for u in dirs):
         return None
     return list(zip(ends, dirs, strict=True))
+
+
+def _extend_tips(branches: list[_Branch], nodes: dict[int, _Node], mask: np.ndarray,
+                 radius: np.ndarray) -> None:
+    """Carry each tip on to where its stroke ends: thinning stops short of a stroke's end,
+    by up to a radius at a round or pointed end, and by several where a narrow V's arms
+    merge in the ink before its point. From the tip, along the direction of the branch's
+    last :data:`TIP_BACK` radii, the ink ends at a distance e (found in ½-px steps, at
+    most :data:`TIP_REACH` radii + 2 px); the stroke's centre line ends one radius r
+    before that, so the tip moves on by e − r when that is ½ px or more: a round cap's
+    centre, a pointed end's point. r is the ink's radius at the tip, or, at the point of
+    a cusp (a tip branch from a narrow fork, :func:`_narrow_fork`), the median radius
+    along the two arms (the merged arms' ink is about twice as wide as either); a tail
+    too short for a direction of its own is carried on along the one from its fork."""
+    height, width = mask.shape
+    for k, br in enumerate(branches):
+        if not br.kept:
+            continue
+        for end in (0, 1):
+            if nodes[br.ends[end]].degree != 1:
+                continue
+            pts = br.points[::-1] if end == 0 else br.points  # (k, 2), ending at the tip
+            tip = pts[-1]
+            r = _tip_radius(branches, nodes, radius, k, end)
+            back = np.hypot(*(pts - tip).T)
+            far = np.flatnonzero(back >= max(3.0, TIP_BACK * r))
+            # a tail shorter than that (a cusp's point past its fork): from the fork
+            u = tip - (pts[far[-1]] if far.size else nodes[br.ends[1 - end]].centre)
+            if np.hypot(*u) == 0:
+                continue
+            u = u / np.hypot(*u)
+            steps = tip + np.arange(1, int(2 * (TIP_REACH * r + 2.0)) + 1)[:, None] * 0.5 * u
+            cols, rows = np.floor(steps.T).astype(int)
+            inside = (cols >= 0) & (cols < width) & (rows >= 0) & (rows < height)
+            ink = np.zeros(len(steps), bool)
+            ink[inside] = mask[rows[inside], cols[inside]]
+            run = int(np.argmin(ink)) if not ink.all() else len(ink)  # ink steps in a row
+            move = 0.5 * run + 0.25 - r  # the ink ends between the last ink step and the next
+            if move < 0.5:
+                continue
+            new = tip + move * u
+            br.points = (np.vstack((new, br.points)) if end == 0
+                         else np.vstack((br.points, new)))
+
+
+def _tip_radius(branches: list[_Branch], nodes: dict[int, _Node], radius: np.ndarray,
+                k: int, end: int) -> float:
+    """The ink radius of the stroke that ends at branch ``k``'s tip ``end``
+    (:func:`_extend_tips`)."""
+    tip = branches[k].points[0 if end == 0 else -1]
+    at_tip = float(radius[int(tip[1]), int(tip[0])])
+    fork = nodes[branches[k].ends[1 - end]]
+    if fork.degree != 3 or not _narrow_fork(branches, fork, (k, 1 - end)):
+        return at_tip
+    arms = []
+    for i in {i for i, _ in fork.ends} - {k}:
+        pts = branches[i].points
+        arms.extend(radius[pts[:, 1].astype(int), pts[:, 0].astype(int)])
+    return min(at_tip, float(np.median(arms))) if arms else at_tip
 
 
 def _cusps(branches: list[_Branch], nodes: dict[int, _Node]) -> None:
@@ -469,8 +554,7 @@ def _stroke_points(chain: list[tuple[int, int]], branches: list[_Branch],
             keep &= np.hypot(*(pts - start_node.centre).T) >= start_node.radius
         if i < len(chain) - 1:
             keep &= np.hypot(*(pts - end_node.centre).T) >= end_node.radius
-        if keep.sum() < 2:
-            keep[:] = False
+        if not keep.any():  # (one point kept is a cusp's point past its fork)
             keep[[0, -1]] = True
         parts.append(pts[keep])
     pts = np.vstack(parts)
@@ -491,7 +575,8 @@ def _closes(chain: list[tuple[int, int]], branches: list[_Branch]) -> bool:
 
 
 def _smooth(pts: np.ndarray, closed: bool) -> np.ndarray:
-    """Moving average over :data:`SMOOTH` samples; an open stroke keeps its two ends."""
+    """Moving average over :data:`SMOOTH` samples; an open stroke keeps its two ends and
+    its cusps' points."""
     n = len(pts)
     if n < 3:
         return pts
@@ -509,6 +594,19 @@ def _smooth(pts: np.ndarray, closed: bool) -> np.ndarray:
     out = np.stack([np.convolve(ext[:, c], np.ones(w) / w, mode="valid")
                     for c in range(pts.shape[1])], axis=1)
     out[0], out[-1] = pts[0], pts[-1]
+    if pts.shape[1] < 2:  # a radius profile
+        return out
+    # a cusp's point (an inner angle under CUSP: the two samples ``h`` away on either
+    # side closer to each other than to it) keeps its place: averaged with the samples
+    # on both legs it would move back along them
+    xy = pts[:, :2]
+    before, after = xy[: n - 2 * h], xy[2 * h:]
+    mid = xy[h: n - h]
+    gap = np.hypot(*(before - after).T)
+    legs = np.minimum(np.hypot(*(mid - before).T), np.hypot(*(mid - after).T))
+    turn = np.flatnonzero((gap < 2.0 * math.sin(math.radians(CUSP) / 2) * legs)
+                          & (legs > 0)) + h
+    out[turn] = pts[turn]
     return out
 
 
