@@ -28,27 +28,27 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     m = layout.moves.to(t_end.dtype)  # (P,)
     path = layout.move_path  # (M,)
     used = (~layout.first).to(t_end.dtype)  # (M,) Δt_i that set an onset
+    if over == "pooled":  # one overlap rhythm over the whole drawing
+        n_used = used.sum().clamp(min=1.0)
+        mean_all = (batch.delta_t * used).sum() / n_used
+        dev_all = (batch.delta_t - mean_all) * used
+        return t_end.sum() / m.sum() + w_sigma * (dev_all * dev_all).sum() / n_used
     denom = (m - 1.0).clamp(min=1.0)  # (P,) m_p − 1 of them
     mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
     dev = (batch.delta_t - mean[path]) * used
     var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom
     if over == "drawing":
         return t_end.sum() / m.sum() + w_sigma * var.mean()
-    if over == "pooled":  # one overlap rhythm over the whole drawing
-        n_used = used.sum().clamp(min=1.0)
-        mean_all = (batch.delta_t * used).sum() / n_used
-        dev_all = (batch.delta_t - mean_all) * used
-        return t_end.sum() / m.sum() + w_sigma * (dev_all * dev_all).sum() / n_used
     assert over == "path", over
     return (t_end / m + w_sigma * var).mean()
 
 
 def canvas_cost(points: torch.Tensor, width: float, height: float) -> torch.Tensor:
-    """Mean squared distance (px²) of virtual targets outside the canvas [0, W] × [0, H]."""
-    x, y = points[:, 0], points[:, 1]
-    out = (torch.relu(-x) ** 2 + torch.relu(x - width) ** 2
-           + torch.relu(-y) ** 2 + torch.relu(y - height) ** 2)
-    return out.mean()
+    """Mean squared distance (px²) of virtual targets outside the canvas [0, W] × [0, H]:
+    each coordinate's distance to its clamp into the canvas (0 inside)."""
+    xy = points[:, :2]
+    inside = torch.stack((xy[:, 0].clamp(0, width), xy[:, 1].clamp(0, height)), 1)
+    return (xy - inside).square().sum(1).mean()
 
 
 def smoothing_costs(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float, layout: GridLayout,
