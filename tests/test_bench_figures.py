@@ -115,3 +115,15 @@ def test_the_benchmarks_refer_to_nothing_outside_the_repository(needle: str) -> 
     found = [str(p.relative_to(PACKAGE)) for p in (PACKAGE / "benchmarks").rglob("*.py")
              if needle in p.read_text(encoding="utf-8")]
     assert not found, found
+
+
+def test_a_repeated_fit_benchmark_reports_the_median_and_the_spread() -> None:
+    from inkmotion.benchmarks.fit import bench_fit
+
+    figures = bench_fit("text:hi", steps=2, size=64, warm=True, repeat=3)
+    low, mid, high = (figures[f"fit_64px_warm_wall_{k}"] for k in ("min_s", "s", "max_s"))
+    assert 0 < low <= mid <= high
+    for key in figures:
+        assert describe(key)[1] != "(no description)", key
+    once = bench_fit("text:hi", steps=2, size=64, warm=True)
+    assert "fit_64px_warm_wall_s" in once and "fit_64px_warm_wall_min_s" not in once

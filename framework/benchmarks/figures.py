@@ -55,8 +55,12 @@ FIGURES: dict[str, tuple[str, str]] = {
     "fit_wall_s": ("s", "the whole fit job, default settings (350 px): read, initialise, "
                         "optimise, write (report.json's wall_s)"),
     "fit_warm_wall_s": ("s", "the same job again in the same process, as a worker's later "
-                             "jobs run: imports and first calls already paid"),
-    "fit_ms_per_step": ("ms", "optimiser time per step"),
+                             "jobs run: imports and first calls already paid (with "
+                             "--repeat N, the median of N)"),
+    "fit_warm_wall_min_s": ("s", "with --repeat N: the fastest of those N"),
+    "fit_warm_wall_max_s": ("s", "with --repeat N: the slowest of those N"),
+    "fit_ms_per_step": ("ms", "optimiser time per step (with --repeat N, the median over "
+                              "every run)"),
     "fit_moves": ("", "sub-movements (lognormals) of the fitted plan"),
     "fit_chamfer_mean_px": ("px", "mean distance between the input and the fitted "
                                   "trajectory (Chamfer, both ways)"),

@@ -29,13 +29,17 @@ def default_fit_input() -> str:
 
 
 def bench_fit(input: str | None = None, steps: int | None = None, size: int = 350,
-              device: str = "cpu", warm: bool = False) -> dict[str, float | str]:
+              device: str = "cpu", warm: bool = False, repeat: int = 1
+              ) -> dict[str, float | str]:
     """Job time of a full fit (the fit kind's default settings, ``steps`` if given) and its
     quality figures, with the plan's size (lognormals) beside them. The job runs with a
     fit's default thread count, as ``inkmotion run fit`` does (not ``bench --threads``,
-    which sets the other figures' torch threads). ``warm``: the same job once more in
-    this process, whose imports and first calls are then paid, as a worker's later jobs
-    find them (``fit_warm_wall_s``)."""
+    which sets the other figures' torch threads). ``warm``: the same job ``repeat`` times
+    more in this process, whose imports and first calls are then paid, as a worker's
+    later jobs find them (``fit_warm_wall_s``, their median; with ``repeat`` > 1 also
+    their fastest and slowest, and the optimiser's time per step is the median over
+    every run: on a machine whose speed drifts, one run says little)."""
+    import statistics
     from dataclasses import fields
 
     from inkmotion.devices import DEFAULT_THREADS
@@ -50,15 +54,23 @@ def bench_fit(input: str | None = None, steps: int | None = None, size: int = 35
                    params={"steps": steps, "size": size}, threads=DEFAULT_THREADS)
     with tempfile.TemporaryDirectory() as tmp:
         report = run_job(spec, Path(tmp) / "out")
-        again = run_job(spec, Path(tmp) / "again") if warm else None
+        again = [run_job(spec, Path(tmp) / f"again-{k}")
+                 for k in range(max(1, repeat) if warm else 0)]
     suffix = "" if size == 350 else f"_{size}px"
-    warm_wall = {} if again is None else {f"fit{suffix}_warm_wall_s": again["wall_s"]}
+    warm_walls = [r["wall_s"] for r in again]
+    warm_figures: dict[str, float] = {}
+    if warm_walls:
+        warm_figures[f"fit{suffix}_warm_wall_s"] = statistics.median(warm_walls)
+    if len(warm_walls) > 1:
+        warm_figures[f"fit{suffix}_warm_wall_min_s"] = min(warm_walls)
+        warm_figures[f"fit{suffix}_warm_wall_max_s"] = max(warm_walls)
+    per_step = statistics.median(r["fit_s"] for r in [report, *again]) / steps
     return {
         "fit_input": source if is_scheme(source) else Path(source).name,
         "fit_steps": steps,
         f"fit{suffix}_wall_s": report["wall_s"],
-        **warm_wall,
-        f"fit{suffix}_ms_per_step": 1e3 * report["fit_s"] / steps,
+        **warm_figures,
+        f"fit{suffix}_ms_per_step": 1e3 * per_step,
         f"fit{suffix}_moves": report["moves"],
         f"fit{suffix}_chamfer_mean_px": report["chamfer_mean_px"],
         f"fit{suffix}_chamfer_max_px": report["chamfer_max_px"],

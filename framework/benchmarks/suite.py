@@ -19,7 +19,8 @@ __all__ = ["DEFAULT_BENCHES", "TARGETS", "figures_record", "print_figures", "run
 DEFAULT_BENCHES = ("kinematics", "raster", "spray", "fit", "extraction", "recording")
 
 
-def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]]:
+def _benches(fit_input: str | None, device: str, repeat: int = 1
+             ) -> dict[str, Callable[[], dict]]:
     def kinematics() -> dict:
         from inkmotion.benchmarks.kinematics import bench_kinematics
 
@@ -38,7 +39,7 @@ def _benches(fit_input: str | None, device: str) -> dict[str, Callable[[], dict]
     def fit() -> dict:
         from inkmotion.benchmarks.fit import bench_fit
 
-        figures = bench_fit(fit_input, device=device, warm=True)
+        figures = bench_fit(fit_input, device=device, warm=True, repeat=repeat)
         if device != "cpu":  # the issue's GPU figure: the same tag at 1000 px
             figures.update(bench_fit(fit_input, size=1000, device=device))
         return figures
@@ -104,17 +105,17 @@ def _on(bench: Callable[..., dict], device: str) -> dict:
 
 def run_benchmarks(only: list[str] | None = None, fit_input: str | None = None,
                    threads: int = 2, console: Console | None = None,
-                   device: str = "cpu", show: bool = True) -> dict:
+                   device: str = "cpu", show: bool = True, repeat: int = 1) -> dict:
     """Run the chosen benchmarks (:data:`DEFAULT_BENCHES` by default) on ``device`` with
-    ``threads`` torch threads; print them (:func:`print_figures`, unless not ``show``) and
-    return them."""
+    ``threads`` torch threads, the fit's warm run ``repeat`` times; print them
+    (:func:`print_figures`, unless not ``show``) and return them."""
     import os
 
     from inkmotion.devices import resolve_device
 
     console = console or Console()
     device = str(resolve_device(device))
-    benches = _benches(fit_input, device)
+    benches = _benches(fit_input, device, repeat)
     unknown = set(only or []) - set(benches)
     if unknown:
         from inkmotion.errors import InkmotionError

@@ -99,6 +99,10 @@ def bench_cmd(
         help="cpu, cuda or auto: where kinematics, raster and fit run.")] = "cpu",
     as_json: Annotated[bool, typer.Option(
         "--json", help="Print the figures as JSON (value, unit, target, met).")] = False,
+    repeat: Annotated[int, typer.Option(
+        min=1, max=50, help="Run the fit's warm job this many times and print the median "
+                            "(with the fastest and slowest): a machine whose speed drifts "
+                            "says little in one run.")] = 1,
 ) -> None:
     """Print speed figures: kinematics, renderers, a full fit, the recording's cost.
 
@@ -114,6 +118,8 @@ def bench_cmd(
 
       inkmotion bench --only fit --fit-input sample:tempt-2
 
+      inkmotion bench --only fit --repeat 5
+
       inkmotion bench --only queue
 
       inkmotion bench --only generation --device cuda
@@ -127,7 +133,7 @@ def bench_cmd(
     try:  # with --json the progress goes to stderr, the figures alone to stdout
         figures = run_benchmarks(only or None, fit_input=fit_input, threads=threads,
                                  console=Console(stderr=True) if as_json else out,
-                                 device=device, show=not as_json)
+                                 device=device, show=not as_json, repeat=repeat)
     except InkmotionError as exc:
         fail(exc)
     if as_json:
