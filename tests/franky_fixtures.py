@@ -2,7 +2,10 @@
 on loopback like redis-server: ``franky_sim_server(address)`` runs the ``franky-sim``
 command (its ports are fixed, 1337 and 1338, so each server takes its own 127.0.0.x
 address), and waits until a libfranka client can connect. Tests using it skip when
-franky-sim or franky-control is not installed."""
+franky-sim or franky-control is not installed. ``sim_address(k)`` is 127.0.0.k in one
+test process and 127.0.0.(k + 10·n) in pytest-xdist's worker n, so the workers' servers
+never share an address (a second server on a taken address cannot bind, and its tests
+would drive the first worker's arm)."""
 
 from __future__ import annotations
 
@@ -18,6 +21,15 @@ from pathlib import Path
 import pytest
 
 READY_TIMEOUT_S = 30.0
+
+
+def sim_address(last: int) -> str:
+    """A loopback address of this test process's own (module docstring)."""
+    import os
+
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
+    n = int(worker[2:]) if worker[2:].isdigit() else 0
+    return f"127.0.0.{last + 10 * n}"
 
 
 def franky_sim_binary() -> str | None:

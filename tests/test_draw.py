@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from franky_fixtures import franky_sim_server, require_franky
+from franky_fixtures import franky_sim_server, require_franky, sim_address
 
 from inkmotion.errors import InputError, ServiceError
 from inkmotion.jobs.shell import run_job
@@ -59,7 +59,7 @@ HOME = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory: pytest.TempPathFactory) -> str:
-    address = "127.0.0.2"
+    address = sim_address(2)
     with franky_sim_server(address, tmp_path_factory.mktemp("franky") / "sim.log"):
         yield address
 
@@ -192,8 +192,9 @@ def test_a_signal_mid_drawing_stops_the_arm_smoothly_and_keeps_the_record(
 @pytest.mark.slow
 def test_a_lost_connection_mid_drawing_is_reported(tmp_path: Path) -> None:
     out = tmp_path / "lost"
-    with franky_sim_server("127.0.0.3", tmp_path / "sim.log") as server:
-        proc = _draw_in_subprocess("127.0.0.3", out)
+    address = sim_address(3)
+    with franky_sim_server(address, tmp_path / "sim.log") as server:
+        proc = _draw_in_subprocess(address, out)
         _wait_until_drawing(proc, out)
         server.kill()
         server.wait()
