@@ -18,8 +18,9 @@ from inkmotion.jobs.progress_bar import ProgressBar, format_figures
 from inkmotion.profiling import count_host_syncs
 
 
-def _started(total: int, kind: str = "fit", refresh_s: float = 0.5) -> ProgressBar:
-    bar = ProgressBar(refresh_s=refresh_s)
+def _started(total: int, kind: str = "fit", refresh_s: float = 0.5,
+             plain: bool = False) -> ProgressBar:
+    bar = ProgressBar(refresh_s=refresh_s, plain=plain)
     bar.on_start(RunContext(SimpleNamespace(kind=kind), Path("."), total))
     return bar
 
@@ -149,3 +150,32 @@ def test_evaluate_clears_its_bar_before_its_table(small_plan: Path) -> None:
     assert "evaluate: " in text and "T_end" not in text
     assert "path=1/1, now=" in text, text
     assert _cleared_before(text, "evaluate: ", "evaluation, 1 path(s)"), text
+
+
+def test_a_log_gets_a_line_every_tenth_not_a_redrawn_bar(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    total = 600
+    bar = _started(total, plain=True, refresh_s=0.0)
+    states = [_fit_state(step, total) for step in range(1, total + 1)]
+    counts = []
+    for state in states:
+        with count_host_syncs() as log:
+            bar.on_step(state)
+        counts.append(log.count)
+    err = capsys.readouterr().err
+    lines = err.splitlines()
+    assert "\r" not in err and len(lines) == 11, err  # step 1, then 60, 120, ..., 600
+    assert lines[0].startswith("fit: 1/600 ") and lines[-1].startswith("fit: 600/600 ")
+    assert "loss=1.5, T_end=3" in lines[-1]
+    # the device is read only on the steps that write a line
+    assert sum(1 for c in counts if c) == 11, counts
+
+
+def test_a_captured_run_writes_plain_lines(tmp_path: Path) -> None:
+    import subprocess
+
+    done = subprocess.run([sys.executable, "-m", "inkmotion", "run", "fit", "text:hi",
+                           "--steps", "20", "--size", "64", "--no-record", "--out",
+                           str(tmp_path / "fit")], capture_output=True, text=True, check=True)
+    assert "\r" not in done.stderr, done.stderr
+    assert re.search(r"^fit: 20/20 [\d.]+ s, loss=", done.stderr, re.M), done.stderr

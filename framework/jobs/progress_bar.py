@@ -7,7 +7,10 @@ evaluate: the path and the timing being computed; ...). Values still on the devi
 tensors) are read only every ``refresh_s`` seconds, in one transfer, so the bar costs no
 GPU synchronisation on most steps; plain numbers and texts are shown at every step. The
 bar is cleared once the last step is done, before the kind or the command prints its
-results. Written to stderr, so stdout stays clean for scripts.
+results. Written to stderr, so stdout stays clean for scripts. Where stderr is not a
+terminal (a log file, CI, a pipe), a bar redrawn in place would be one endless line of
+carriage returns: a plain line is written instead at every tenth of the run (and at its
+last step), each read of the device's values made there.
 """
 
 from __future__ import annotations
@@ -31,22 +34,62 @@ def format_figures(values: dict[str, Any]) -> str:
                      for k, v in values.items())
 
 
-class ProgressBar:
-    """A tqdm bar over the job's steps, showing what the kind reports of each step."""
+#: a log (stderr not a terminal) gets a line at every this share of the run
+LOG_EVERY = 0.1
 
-    def __init__(self, desc: str = "", refresh_s: float = 0.5) -> None:
+
+class ProgressBar:
+    """A tqdm bar over the job's steps, showing what the kind reports of each step; or,
+    with ``plain`` (default: when stderr is not a terminal), a line at every
+    :data:`LOG_EVERY` of the run."""
+
+    def __init__(self, desc: str = "", refresh_s: float = 0.5,
+                 plain: bool | None = None) -> None:
         self.desc = desc
         self.refresh_s = refresh_s
+        self.plain = plain
         self._bar: Any = None
         self._shown = -math.inf  # the first step is shown
+        self._log: dict[str, Any] | None = None  # plain: desc, total, start, next line
 
     def on_start(self, ctx: RunContext) -> None:
+        import sys
+
+        desc = self.desc or ctx.spec.kind
+        plain = self.plain if self.plain is not None else not sys.stderr.isatty()
+        if plain:
+            self._log = {"desc": desc, "total": ctx.total_steps, "start": time.monotonic(),
+                         "next": 0.0}
+            return
         from tqdm.auto import tqdm
 
-        self._bar = tqdm(total=ctx.total_steps, desc=self.desc or ctx.spec.kind, unit="step",
+        self._bar = tqdm(total=ctx.total_steps, desc=desc, unit="step",
                          dynamic_ncols=True, leave=False, bar_format=BAR_FORMAT)
 
+    def _log_line(self, state: StepState) -> None:
+        """Plain mode: a line when the run has passed its next tenth, or at its end."""
+        log = self._log
+        assert log is not None
+        total = state.total or log["total"] or 0
+        last = bool(total) and state.step >= total
+        share = state.step / total if total else 0.0
+        if not last and share < log["next"]:
+            return
+        import sys
+
+        log["next"] = (math.floor(share / LOG_EVERY) + 1) * LOG_EVERY
+        elapsed = time.monotonic() - log["start"]
+        count = f"{state.step}/{total}" if total else f"{state.step}"
+        figures = format_figures(state.shown())
+        print(f"{log['desc']}: {count} {elapsed:.1f} s" + (f", {figures}" if figures else ""),
+              file=sys.stderr, flush=True)
+        if last:
+            self._log = None
+
     def on_step(self, state: StepState) -> None:
+        if self._log is not None:
+            self._log_line(state)
+            return
         if self._bar is None:
             return
         if state.total and state.total != self._bar.total:  # a kind that counts as it goes
@@ -66,6 +109,7 @@ class ProgressBar:
         self.close()
 
     def close(self) -> None:
+        self._log = None
         if self._bar is not None:
             self._bar.close()
             self._bar = None
