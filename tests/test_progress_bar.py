@@ -64,15 +64,20 @@ def test_the_bar_clears_itself_at_the_last_step(capsys: pytest.CaptureFixture[st
     bar.on_end({})
 
 
-def test_device_values_are_read_only_every_refresh(capsys: pytest.CaptureFixture[str]) -> None:
-    total = 50
-    bar = _started(total, refresh_s=3600.0)
+def _syncs_per_step(bar: ProgressBar, total: int) -> list[int]:
+    """The host synchronisations of each of ``total`` fit steps shown by ``bar`` (the
+    steps' states made beforehand)."""
     states = [_fit_state(step, total) for step in range(1, total + 1)]
     counts = []
     for state in states:
         with count_host_syncs() as log:
             bar.on_step(state)
         counts.append(log.count)
+    return counts
+
+
+def test_device_values_are_read_only_every_refresh(capsys: pytest.CaptureFixture[str]) -> None:
+    counts = _syncs_per_step(_started(50, refresh_s=3600.0), 50)
     # the first and the last step read every figure in one transfer; no step between
     assert counts[0] > 0 and counts[-1] == counts[0] and not any(counts[1:-1]), counts
     capsys.readouterr()
@@ -154,14 +159,7 @@ def test_evaluate_clears_its_bar_before_its_table(small_plan: Path) -> None:
 
 def test_a_log_gets_a_line_every_tenth_not_a_redrawn_bar(
         capsys: pytest.CaptureFixture[str]) -> None:
-    total = 600
-    bar = _started(total, plain=True, refresh_s=0.0)
-    states = [_fit_state(step, total) for step in range(1, total + 1)]
-    counts = []
-    for state in states:
-        with count_host_syncs() as log:
-            bar.on_step(state)
-        counts.append(log.count)
+    counts = _syncs_per_step(_started(600, plain=True, refresh_s=0.0), 600)
     err = capsys.readouterr().err
     lines = err.splitlines()
     assert "\r" not in err and len(lines) == 11, err  # step 1, then 60, 120, ..., 600
