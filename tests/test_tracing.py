@@ -173,6 +173,13 @@ def test_a_stroke_ends_where_its_ink_ends_less_its_radius(tmp_path: Path, width:
     assert ends[0] > 60 - width / 2 and ends[1] < 340 + width / 2
 
 
+def test_a_stroke_off_the_picture_ends_at_its_edge(tmp_path: Path) -> None:
+    # the ink runs to the border: the tip is carried to it, never past (4.5: the border
+    # less the ink's radius)
+    (stroke,) = strokes_of(tmp_path, line(page(), [(-20, 150), (200, 150)], width=9))
+    assert 0 <= stroke[:, 0].min() < 6 and stroke[:, 0].max() < 201
+
+
 def test_skeleton_paths_are_skans() -> None:
     # the tracer splits scikit-image's pixel graph into paths itself (skan's path builder
     # costs seconds of numba compilation per process): the same graph and the same paths
