@@ -383,7 +383,7 @@ def _extend_tips(branches: list[_Branch], nodes: dict[int, _Node], mask: np.ndar
         for end in (0, 1):
             if nodes[br.ends[end]].degree != 1:
                 continue
-            pts = br.points[::-1] if end == 0 else br.points  # (k, 2), ending at the tip
+            pts = br.points[::-1] if end == 0 else br.points  # (n, 2), ending at the tip
             tip = pts[-1]
             r = _tip_radius(branches, nodes, radius, k, end)
             back = np.hypot(*(pts - tip).T)
