@@ -16,7 +16,9 @@ last step), each read of the device's values made there.
 from __future__ import annotations
 
 import math
+import sys
 import time
+from dataclasses import dataclass
 from typing import Any
 
 from inkmotion.events import RunContext, StepState, scalars
@@ -38,6 +40,17 @@ def format_figures(values: dict[str, Any]) -> str:
 LOG_EVERY = 0.1
 
 
+@dataclass
+class _Log:
+    """Plain mode's state: what to call the run, its steps, when it began (monotonic s)
+    and the share of the run at which the next line is due."""
+
+    desc: str
+    total: int
+    start: float
+    next: float = 0.0
+
+
 class ProgressBar:
     """A tqdm bar over the job's steps, showing what the kind reports of each step; or,
     with ``plain`` (default: when stderr is not a terminal), a line at every
@@ -50,16 +63,13 @@ class ProgressBar:
         self.plain = plain
         self._bar: Any = None
         self._shown = -math.inf  # the first step is shown
-        self._log: dict[str, Any] | None = None  # plain: desc, total, start, next line
+        self._log: _Log | None = None  # plain mode
 
     def on_start(self, ctx: RunContext) -> None:
-        import sys
-
         desc = self.desc or ctx.spec.kind
         plain = self.plain if self.plain is not None else not sys.stderr.isatty()
         if plain:
-            self._log = {"desc": desc, "total": ctx.total_steps, "start": time.monotonic(),
-                         "next": 0.0}
+            self._log = _Log(desc, ctx.total_steps, time.monotonic())
             return
         from tqdm.auto import tqdm
 
@@ -70,18 +80,16 @@ class ProgressBar:
         """Plain mode: a line when the run has passed its next tenth, or at its end."""
         log = self._log
         assert log is not None
-        total = state.total or log["total"] or 0
+        total = state.total or log.total or 0
         last = bool(total) and state.step >= total
         share = state.step / total if total else 0.0
-        if not last and share < log["next"]:
+        if not last and share < log.next:
             return
-        import sys
-
-        log["next"] = (math.floor(share / LOG_EVERY) + 1) * LOG_EVERY
-        elapsed = time.monotonic() - log["start"]
+        log.next = (math.floor(share / LOG_EVERY) + 1) * LOG_EVERY
+        elapsed = time.monotonic() - log.start
         count = f"{state.step}/{total}" if total else f"{state.step}"
         figures = format_figures(state.shown())
-        print(f"{log['desc']}: {count} {elapsed:.1f} s" + (f", {figures}" if figures else ""),
+        print(f"{log.desc}: {count} {elapsed:.1f} s" + (f", {figures}" if figures else ""),
               file=sys.stderr, flush=True)
         if last:
             self._log = None
