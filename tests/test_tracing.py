@@ -470,6 +470,24 @@ def test_a_recorded_tag_as_a_scan_keeps_its_strokes_in_place(tmp_path: Path) -> 
     assert np.percentile(off, 99) < 6 and np.mean(missed < 6) > 0.97
 
 
+def test_a_grey_marker_is_solid_ink_to_the_fit(tmp_path: Path) -> None:
+    """Ink is never black: what the fit compares its rendering (ink = 1) with is the
+    darkness over the ink's own level, so a grey marker's stroke is 1 in its core and its
+    ink mass is its area (against the raw darkness a width the fit may change would shrink
+    to match the mass); strokes too thin for a solid core keep the raw darkness."""
+    img = line(page(), [(60, 150), (340, 150)], width=14, ink=110)  # darkness 1 − 110/240
+    picture = read_picture(save(tmp_path, img))
+    assert picture.ink_level == pytest.approx(1 - 110 / 240, abs=0.02)
+    traces = trace_picture(picture)
+    assert traces.meta["extraction"]["ink_level"] == pytest.approx(picture.ink_level, abs=1e-3)
+    assert traces.picture[146:155, 80:320].min() > 0.97
+    area = float((1 - img / 240).sum()) / (1 - 110 / 240)  # OpenCV's line, 15.4 px wide
+    assert float(traces.picture.sum()) == pytest.approx(area, rel=0.05)
+    thin = read_picture(save(tmp_path, line(page(), [(60, 150), (340, 150)], width=2,
+                                            ink=110), "thin.png"))
+    assert thin.ink_level == 1.0
+
+
 def test_stroke_graph_of_an_empty_mask_is_empty() -> None:
     graph = stroke_graph(np.zeros((50, 50), bool))
     assert graph.strokes == [] and math.isclose(graph.junctions, 0)

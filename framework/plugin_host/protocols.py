@@ -126,7 +126,8 @@ class Tracer(Plugin, Protocol):
     def __call__(self, picture: Picture, *, varying_width: bool = False,
                  **options: Any) -> Traces:
         """Traces of ``picture`` (:class:`inkmotion.tracing.picture.Picture`) in its pixels,
-        ``picture.ink`` attached as ``Traces.picture``; raise
+        ``picture.target`` (its darkness over the ink's level) attached as
+        ``Traces.picture``; raise
         :class:`inkmotion.errors.InputError` when no stroke can be traced."""
 
 

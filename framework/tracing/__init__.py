@@ -3,8 +3,8 @@ their order, direction and width (:mod:`.strokes`).
 
 :func:`trace_picture` is the built-in method behind the 'skeleton' tracer plugin and the
 'image' reader; the traces it returns carry the picture's ink (``Traces.picture``) so a
-fit compares its rendering with the picture itself, and ``meta["extraction"]`` for the
-report."""
+fit compares its rendering with the picture itself (its darkness over the ink's own
+level, :attr:`Picture.target`), and ``meta["extraction"]`` for the report."""
 
 from __future__ import annotations
 
@@ -42,8 +42,9 @@ def trace_picture(picture: Picture, varying_width: bool = False) -> Traces:
                          "p90": float(2 * np.percentile(radii, 90))},
         "picture_px": [int(picture.shape[1]), int(picture.shape[0])],
         "decoded_scale": picture.scale, "inverted": picture.inverted,
+        "ink_level": round(picture.ink_level, 3),
         "notes": list(picture.notes),
         "seconds": round(time.perf_counter() - start, 4),
     }
     return Traces(strokes, picture.source, meta={"extraction": extraction},
-                  picture=picture.ink * picture.mask)
+                  picture=picture.target)

@@ -16,6 +16,12 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
 4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), a 3 × 3 median against JPEG noise, small specks removed and
    pin-holes filled (:mod:`skimage.morphology`).
+5. **Ink level**: how dark the ink itself is (no ink is black: a marker on paper reads
+   about 0.85), the median darkness of the mask's solid core, the pixels at least
+   :data:`SOLID_DEPTH` px inside it (out of a scan's blur); 1 when the strokes are too thin
+   to have one. A fit renders ink as 1, so it compares its rendering with the darkness
+   divided by this level (:attr:`Picture.target`): against the raw darkness a width the
+   fit may change (``--varying-width``) would shrink by the level to match the ink's mass.
 
 Refused: a blank page, a page that is mostly ink, and a photo that is not line art (more
 half-tones than ink, or its ink too wide for the page).
@@ -47,6 +53,11 @@ MIN_CONTRAST = 0.18
 DENOISE = 1.0
 #: a page with more ink than this share is not line art
 MAX_INK_SHARE = 0.35
+#: pixels at least this far (px) inside the ink mask are solid ink, out of reach of a
+#: scan's blur (σ up to about 1.5 px)
+SOLID_DEPTH = 3.0
+#: with fewer solid pixels than this the strokes are too thin to show the ink's own level
+SOLID_LEAST = 50
 #: ink whose widest strokes (95th percentile) are more than this share of the page's
 #: longer side is not line art
 MAX_WIDTH_SHARE = 0.05
@@ -57,7 +68,8 @@ class Picture:
     """A decoded picture: ``grey`` (H, W) in [0, 1], 1 = paper, after polarity; ``ink``
     (H, W) darkness against the flattened paper, [0, 1]; ``mask`` (H, W) bool, the ink
     after clean-up. ``scale`` is the decoded size over the file's (1 unless reduced);
-    ``notes`` say what was done that a user should know (reduced, inverted)."""
+    ``notes`` say what was done that a user should know (reduced, inverted);
+    ``ink_level`` the darkness of solid ink (module docstring, step 5)."""
 
     source: str
     grey: np.ndarray
@@ -66,10 +78,17 @@ class Picture:
     scale: float = 1.0
     inverted: bool = False
     notes: list[str] = field(default_factory=list)
+    ink_level: float = 1.0
 
     @property
     def shape(self) -> tuple[int, int]:
         return self.mask.shape  # type: ignore[return-value]
+
+    @property
+    def target(self) -> np.ndarray:
+        """What a fit's rendering (ink = 1) is compared with: the darkness over the ink
+        level, within the mask, float32 (H, W) in [0, 1]."""
+        return (np.clip(self.ink / self.ink_level, 0.0, 1.0) * self.mask).astype(np.float32)
 
 
 def is_picture(source: str) -> bool:
@@ -191,7 +210,7 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     ink = ink_map(grey)
     mask = ink_mask(ink)
     _check_line_art(source, ink, mask)
-    return Picture(source, grey, ink, mask, scale, inverted, notes)
+    return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, mask))
 
 
 def paper_window(shape: tuple[int, int]) -> int:
@@ -230,6 +249,19 @@ def ink_mask(ink: np.ndarray) -> np.ndarray:
     speck = max(4, int(round(1e-5 * mask.size)))
     mask = remove_small_objects(mask, max_size=speck)
     return remove_small_holes(mask, max_size=speck)
+
+
+def ink_level(ink: np.ndarray, mask: np.ndarray) -> float:
+    """The darkness of solid ink (module docstring, step 5): the median of ``ink`` over the
+    pixels of ``mask`` at least :data:`SOLID_DEPTH` px from its edge; 1 with fewer than
+    :data:`SOLID_LEAST` of them."""
+    import cv2
+
+    depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    solid = ink[depth >= SOLID_DEPTH]
+    if solid.size < SOLID_LEAST:
+        return 1.0
+    return float(np.clip(np.median(solid), MIN_CONTRAST, 1.0))
 
 
 def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray) -> None:
