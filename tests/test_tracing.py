@@ -306,6 +306,28 @@ def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str)
     assert ends == want, form
 
 
+def test_a_hard_shadow_across_the_page_is_not_ink(tmp_path: Path) -> None:
+    """A phone's shadow falls across the page with a sharp edge: the paper estimate keeps
+    the edge where it is, so it is not traced as a row of strokes along it."""
+    yy, xx = np.mgrid[0:400, 0:600]
+    shadow = np.where(xx + 0.6 * yy > 420, 0.55, 1.0)  # its edge runs between the marks
+    for ink, soft in ((30, 0), (140, 0), (140, 6)):  # a pen; a pencil; a softer shadow
+        img = line(line(page((600, 400)), [(80, 120), (80, 320), (220, 320)], ink=ink),
+                   [(380, 100), (520, 300)], ink=ink)
+        shade = cv2.GaussianBlur(shadow, (0, 0), soft) if soft else shadow
+        strokes = strokes_of(tmp_path, (img * shade).astype(np.uint8))
+        assert len(strokes) == 2, (ink, soft, [s[[0, -1], :2].round().tolist() for s in strokes])
+
+
+def test_a_page_on_a_desk_is_traced_without_the_desk(tmp_path: Path) -> None:
+    """A photo of the page on a dark desk: the desk round the page is paper in shadow, not
+    ink (the paper estimate carries the picture's border on outward)."""
+    img = np.full((300, 400), 60, np.uint8)
+    img[40:-40, 40:-40] = 235
+    strokes = strokes_of(tmp_path, line(img, [(150, 150), (250, 150)], width=4))
+    assert len(strokes) == 1 and np.allclose(strokes[0][[0, -1], 1], 150, atol=1.5)
+
+
 def test_invert_forces_light_ink_on_dark_paper(tmp_path: Path) -> None:
     img = np.full((300, 400), 20, np.uint8)  # mostly paper, so detection would agree
     path = save(tmp_path, line(img, [(60, 150), (340, 150)], ink=230))

@@ -11,8 +11,10 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    below ½ is light ink on dark paper and is inverted (``invert=True`` forces it).
 3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
    paper itself: the grey image, its grain calmed by a Gaussian of σ = :data:`DENOISE`,
-   closed (max then min) over a window wider than any stroke and blurred; the ink is then
-   1 − grey / paper, in [0, 1].
+   closed (max then min) over a window wider than any stroke; the ink is then
+   1 − grey / paper, in [0, 1]. A closing keeps the paper's own edges where they are (a
+   hard shadow across the page, the page's edge): a blur of it would smear each into a
+   band of false ink along the edge, traced as a row of strokes.
 4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), a 3 × 3 median against JPEG noise, small specks removed and
    pin-holes filled (:mod:`skimage.morphology`).
@@ -228,8 +230,10 @@ def ink_map(grey: np.ndarray) -> np.ndarray:
     k = paper_window(grey.shape)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
     calm = cv2.GaussianBlur(grey, (0, 0), DENOISE)  # a max over grain would lift the paper
-    paper = cv2.morphologyEx(calm, cv2.MORPH_CLOSE, kernel)  # removes the dark strokes
-    paper = np.maximum(cv2.blur(paper, (k, k)), calm)  # the blur may dip below the paper
+    # the closing removes the dark strokes; the page's border is carried on outward first
+    # (a window cut short there would lift a shadow's corner into false ink)
+    padded = cv2.copyMakeBorder(calm, k, k, k, k, cv2.BORDER_REPLICATE)
+    paper = cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[k:-k, k:-k]
     return np.clip(1.0 - grey / np.maximum(paper, 1e-3), 0.0, 1.0).astype(np.float32)
 
 
