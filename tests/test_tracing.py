@@ -306,6 +306,20 @@ def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str)
     assert ends == want, form
 
 
+def test_a_hairline_stays_whole(tmp_path: Path) -> None:
+    """A line one pixel wide (a fine pen, or a photo reduced to trace it) running near
+    vertical: the mask's clean-up keeps it whole (a 3 × 3 median would erase it)."""
+    img = page()
+    cv2.line(img, (150, 40), (170, 260), 40, 1)  # no antialiasing: one pixel wide
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 1, [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert _length_of(strokes[0]) > 0.95 * math.hypot(20, 220)
+
+
+def _length_of(s: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(s[:, :2], axis=0).T).sum())
+
+
 def test_a_hard_shadow_across_the_page_is_not_ink(tmp_path: Path) -> None:
     """A phone's shadow falls across the page with a sharp edge: the paper estimate keeps
     the edge where it is, so it is not traced as a row of strokes along it."""

@@ -34,8 +34,9 @@ formed, directed and ordered the way a hand draws them.
    counter-clockwise on the page, as the Latin script's o. Strokes are ordered in lines,
    top to bottom, each line left to right (by the stroke's left edge); strokes are in one
    line when the middle halves of their heights overlap (:data:`CORE_TRIM`).
-5. **Dots**: ink that no stroke passes through is a dab, a stroke of two points across
-   the blob, when it is at least as big as a dab of the drawing's pen; smaller specks
+5. **Dots**: ink that no stroke passes through, or only a stroke no longer than the blob
+   is wide, is a dab, a stroke of two points across the blob, when it is at least as big
+   as a dab of the drawing's pen; smaller specks
    (and any stroke within one) are noise and are dropped.
 
 Coordinates: x, y in the picture's pixels, pixel centres at half-integers (the renderer's
@@ -629,23 +630,46 @@ def _simplify(pts: np.ndarray, closed: bool, tol: float = 0.2) -> np.ndarray:
     return pts[np.unique(idx)]
 
 
+def _pen_radius(strokes: list[np.ndarray]) -> float:
+    """The radius most of the drawing's ink length is drawn with: the median of the
+    strokes' radii weighted by length (a straight stroke keeps two points after
+    :func:`_simplify`, so a median over points would be the specks')."""
+    if not strokes:
+        return 0.0
+    radius = np.concatenate([(s[1:, 2] + s[:-1, 2]) / 2 if len(s) > 1 else s[:, 2]
+                             for s in strokes])
+    length = np.concatenate([np.hypot(*np.diff(s[:, :2], axis=0).T) if len(s) > 1
+                             else np.ones(1) for s in strokes])
+    order = np.argsort(radius)
+    cumulative = np.cumsum(length[order])
+    return float(radius[order][np.searchsorted(cumulative, 0.5 * cumulative[-1])])
+
+
 def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
           ) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The strokes without specks, and dabs for the blobs no stroke passes through (step
     5). A blob smaller than a dab of the drawing's own pen (π r² for the strokes' median
     radius r, at least 3 px²) is a speck of noise: dropped, with any stroke inside it."""
     import cv2
+    from scipy import ndimage
 
     count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
-    pen = float(np.median(np.concatenate([s[:, 2] for s in strokes]))) if strokes else 0.0
+    pen = _pen_radius(strokes)
     least = max(3.0, math.pi * pen * pen)
     speck = stats[:, cv2.CC_STAT_AREA] < least
     covered = np.zeros(count, bool)
     kept = []
+    blobs_of = []
     for s in strokes:
         rows = np.clip(s[:, 1].astype(int), 0, mask.shape[0] - 1)
         cols = np.clip(s[:, 0].astype(int), 0, mask.shape[1] - 1)
-        blobs = labels[rows, cols]
+        blobs_of.append(np.unique(labels[rows, cols]))
+    alone = np.bincount(np.concatenate(blobs_of), minlength=count) == 1 if blobs_of else []
+    widest = ndimage.maximum(radius, labels, np.arange(count))  # each blob's inscribed radius
+    for s, blobs in zip(strokes, blobs_of, strict=True):
+        b = blobs[0]
+        if len(blobs) == 1 and b and alone[b] and _length(s[:, :2]) < 2.0 * widest[b]:
+            continue  # no longer than the blob is wide: a dot, left for a dab below
         covered[blobs] = True
         if not np.all(speck[blobs] | (blobs == 0)):
             kept.append(s)
