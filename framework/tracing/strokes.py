@@ -620,14 +620,27 @@ def _simplify(pts: np.ndarray, closed: bool, tol: float = 0.2) -> np.ndarray:
         return pts
     line = LineString(pts[:, :2]).simplify(tol, preserve_topology=False)
     kept = np.asarray(line.coords)
-    # map the kept coordinates back to their rows (simplify returns a subset)
+    # map the kept coordinates back to their rows: simplify returns a subset, in order,
+    # of the very same numbers (compared as Python floats: a numpy call per point cost
+    # more than the rest of the tracing together)
+    rows = pts[:, :2].tolist()
     idx = []
     j = 0
-    for p in kept:
-        while j < len(pts) and not np.allclose(pts[j, :2], p):
+    for x, y in kept.tolist():
+        while j < len(rows) and not (abs(rows[j][0] - x) <= 1e-9 and abs(rows[j][1] - y) <= 1e-9):
             j += 1
-        idx.append(min(j, len(pts) - 1))
+        idx.append(min(j, len(rows) - 1))
     return pts[np.unique(idx)]
+
+
+def _widest(radius: np.ndarray, labels: np.ndarray, stats: np.ndarray, label: int) -> float:
+    """The inscribed radius of blob ``label`` (its largest ink radius), read in its box."""
+    import cv2
+
+    x0, y0, w, h = (int(stats[label, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP,
+                                                  cv2.CC_STAT_WIDTH, cv2.CC_STAT_HEIGHT))
+    box = labels[y0:y0 + h, x0:x0 + w] == label
+    return float(radius[y0:y0 + h, x0:x0 + w][box].max())
 
 
 def _pen_radius(strokes: list[np.ndarray]) -> float:
@@ -651,7 +664,6 @@ def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
     5). A blob smaller than a dab of the drawing's own pen (π r² for the strokes' median
     radius r, at least 3 px²) is a speck of noise: dropped, with any stroke inside it."""
     import cv2
-    from scipy import ndimage
 
     count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
     pen = _pen_radius(strokes)
@@ -665,22 +677,19 @@ def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
         cols = np.clip(s[:, 0].astype(int), 0, mask.shape[1] - 1)
         blobs_of.append(np.unique(labels[rows, cols]))
     alone = np.bincount(np.concatenate(blobs_of), minlength=count) == 1 if blobs_of else []
-    widest = ndimage.maximum(radius, labels, np.arange(count))  # each blob's inscribed radius
     for s, blobs in zip(strokes, blobs_of, strict=True):
         b = blobs[0]
-        if len(blobs) == 1 and b and alone[b] and _length(s[:, :2]) < 2.0 * widest[b]:
+        if len(blobs) == 1 and b and alone[b] and _length(s[:, :2]) < 2.0 * _widest(
+                radius, labels, stats, b):
             continue  # no longer than the blob is wide: a dot, left for a dab below
         covered[blobs] = True
         if not np.all(speck[blobs] | (blobs == 0)):
             kept.append(s)
     dots = []
     for label in np.flatnonzero(~covered[1:] & ~speck[1:]) + 1:
-        x0, y0, w, h = (int(stats[label, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP,
-                                                      cv2.CC_STAT_WIDTH, cv2.CC_STAT_HEIGHT))
-        box = labels[y0:y0 + h, x0:x0 + w] == label
-        r = float(radius[y0:y0 + h, x0:x0 + w][box].max())
+        r = _widest(radius, labels, stats, label)
         cx, cy = centroids[label]
-        half = max(0.5, w / 2.0 - r)
+        half = max(0.5, float(stats[label, cv2.CC_STAT_WIDTH]) / 2.0 - r)
         dots.append(np.array([[cx + 0.5 - half, cy + 0.5, r], [cx + 0.5 + half, cy + 0.5, r]]))
     return kept, dots
 
