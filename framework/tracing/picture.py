@@ -10,13 +10,11 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
 2. **Polarity**: the paper is what most of the page is, so a page whose median grey is
    below ½ is light ink on dark paper and is inverted (``invert=True`` forces it).
 3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
-   paper itself: the grey image, its grain calmed by a 5 × 5 median (which, unlike a blur,
-   leaves the paper's edges sharp: a blur spills the bright side into the dark one, and
-   the spill reads as a thin line of ink along the edge), closed (max then min) over a
-   window wider than any stroke; the ink is then
-   1 − grey / paper, in [0, 1]. A closing keeps the paper's own edges where they are (a
-   hard shadow across the page, the page's edge): a blur of it would smear each into a
-   band of false ink along the edge, traced as a row of strokes.
+   paper itself: the grey image, its grain calmed by a 5 × 5 median, closed (max then
+   min) over a window wider than any stroke, the picture's border carried on outward
+   first; the ink is then 1 − grey / paper, in [0, 1]. Both keep the paper's own edges
+   (a hard shadow across the page, the edge of a photographed page) where they are: a
+   blur spills an edge's bright side into its dark side, read as a line of ink along it.
 4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), burrs and notches of JPEG noise evened out (:func:`_tidy`,
    which keeps a line one pixel wide whole), small specks removed and pin-holes filled
@@ -273,9 +271,9 @@ def ink_level(ink: np.ndarray, mask: np.ndarray) -> float:
 def _tidy(raw: np.ndarray) -> np.ndarray:
     """A threshold's mask (H, W) uint8 0/1 with JPEG noise's burrs and notches evened out,
     as bool: a pixel with at most one ink neighbour of eight goes (a speck, a burr's tip)
-    and a paper pixel with six or more is filled (a notch). Unlike a 3 × 3 median this
-    never breaks a line one pixel wide (each of its pixels has two ink neighbours), which
-    a median erases wherever it runs near vertical or horizontal."""
+    and a paper pixel with five or more is filled (a notch, as a 3 × 3 median fills it).
+    Unlike a median this never breaks a line one pixel wide (each of its pixels has two
+    ink neighbours), which a median erases wherever it runs near vertical or horizontal."""
     import cv2
 
     neighbours = cv2.filter2D(raw, cv2.CV_8U, np.ones((3, 3), np.float32),

@@ -36,8 +36,8 @@ formed, directed and ordered the way a hand draws them.
    line when the middle halves of their heights overlap (:data:`CORE_TRIM`).
 5. **Dots**: ink that no stroke passes through, or only a stroke no longer than the blob
    is wide, is a dab, a stroke of two points across the blob, when it is at least as big
-   as a dab of the drawing's pen; smaller specks
-   (and any stroke within one) are noise and are dropped.
+   as a dab of the drawing's pen; smaller specks (and any stroke within one) are noise
+   and are dropped.
 
 Coordinates: x, y in the picture's pixels, pixel centres at half-integers (the renderer's
 convention); each stroke (k, 3) with its radius.
@@ -627,7 +627,7 @@ def _simplify(pts: np.ndarray, closed: bool, tol: float = 0.2) -> np.ndarray:
     idx = []
     j = 0
     for x, y in kept.tolist():
-        while j < len(rows) and not (abs(rows[j][0] - x) <= 1e-9 and abs(rows[j][1] - y) <= 1e-9):
+        while j < len(rows) and (abs(rows[j][0] - x) > 1e-9 or abs(rows[j][1] - y) > 1e-9):
             j += 1
         idx.append(min(j, len(rows) - 1))
     return pts[np.unique(idx)]
@@ -660,9 +660,10 @@ def _pen_radius(strokes: list[np.ndarray]) -> float:
 
 def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
           ) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The strokes without specks, and dabs for the blobs no stroke passes through (step
-    5). A blob smaller than a dab of the drawing's own pen (π r² for the strokes' median
-    radius r, at least 3 px²) is a speck of noise: dropped, with any stroke inside it."""
+    """The strokes without specks, and dabs for the blobs that no stroke passes through,
+    or only a stroke no longer than the blob is wide (step 5). A blob smaller than a dab
+    of the drawing's own pen (π r² for the pen's radius r, :func:`_pen_radius`, at least
+    3 px²) is a speck of noise: dropped, with any stroke inside it."""
     import cv2
 
     count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
