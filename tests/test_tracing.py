@@ -320,6 +320,19 @@ def _length_of(s: np.ndarray) -> float:
     return float(np.hypot(*np.diff(s[:, :2], axis=0).T).sum())
 
 
+def test_a_small_character_is_traced_not_refused(tmp_path: Path) -> None:
+    """A handwritten character at 105 px (the size of a handwriting set's images): its
+    3-px strokes merge into wider ink where they cross, which is still line art."""
+    from inkmotion.benchmarks.pictures import Scan, render_scan
+    from inkmotion.kinds.read import read_input
+
+    truth = read_input("text:hello").fit_to_canvas(105).strokes
+    pic = tmp_path / "hello.png"
+    render_scan(truth, Scan("small", size=105, brush=2.5, blur=0.7, noise=0.02), pic)
+    traces = trace_picture(read_picture(str(pic)))
+    assert 3 <= len(traces.strokes) <= 6
+
+
 def test_a_hard_shadow_across_the_page_is_not_ink(tmp_path: Path) -> None:
     """A phone's shadow falls across the page with a sharp edge: the paper estimate keeps
     the edge where it is, so it is not traced as a row of strokes along it."""

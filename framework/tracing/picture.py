@@ -62,8 +62,11 @@ SOLID_DEPTH = 3.0
 #: with fewer solid pixels than this the strokes are too thin to show the ink's own level
 SOLID_LEAST = 50
 #: ink whose widest strokes (95th percentile) are more than this share of the page's
-#: longer side is not line art
+#: longer side is not line art (:func:`widest_stroke`) ...
 MAX_WIDTH_SHARE = 0.05
+#: ... though strokes this wide (px) are line art on any page, however small (an icon, a
+#: character of a handwriting set at 105 px, whose crossings merge into wider ink)
+LEAST_WIDEST = 10.0
 
 
 @dataclass
@@ -216,12 +219,17 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, mask))
 
 
+def widest_stroke(shape: tuple[int, int]) -> float:
+    """The widest strokes (px) line art may have on a page of ``shape``:
+    :data:`MAX_WIDTH_SHARE` of its longer side, at least :data:`LEAST_WIDEST`."""
+    return max(MAX_WIDTH_SHARE * max(shape), LEAST_WIDEST)
+
+
 def paper_window(shape: tuple[int, int]) -> int:
     """Odd window (px) of the paper estimate: well over twice as wide as any stroke of
-    line art (:data:`MAX_WIDTH_SHARE` of the longer side; at least 15 px), so the closing
-    removes every stroke, yet far narrower than the page's changes of light."""
-    k = max(15, int(2.4 * MAX_WIDTH_SHARE * max(shape)) + 3)
-    return k | 1
+    line art (:func:`widest_stroke`), so the closing removes every stroke, yet far
+    narrower than the page's changes of light."""
+    return (int(2.4 * widest_stroke(shape)) + 3) | 1
 
 
 def ink_map(grey: np.ndarray) -> np.ndarray:
@@ -301,7 +309,7 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray) -> None:
                          "picture of line art on plain paper.")
     dist = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     widest = 2.0 * float(np.percentile(dist[mask], 95))
-    if widest > MAX_WIDTH_SHARE * max(mask.shape):
+    if widest > widest_stroke(mask.shape):
         raise InputError(f"{source}: the dark areas are {widest:.0f} px wide, too wide for "
                          "line art on a page this size, so this is not a line drawing; use "
                          "a picture of line art (a photo is drawn by the 'abstract' kind).")
