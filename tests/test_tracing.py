@@ -355,6 +355,23 @@ def test_a_page_on_a_desk_is_traced_without_the_desk(tmp_path: Path) -> None:
     assert len(strokes) == 1 and np.allclose(strokes[0][[0, -1], 1], 150, atol=1.5)
 
 
+@pytest.mark.parametrize("paper, ink, light", [
+    (100, 15, False),  # a dim photo: black ink on paper darker than mid-grey
+    (240, 30, False),  # a scan
+    (35, 200, True),  # chalk on a blackboard
+    (150, 250, True),  # white ink on a mid-grey card
+])
+def test_the_ink_is_the_side_the_page_reaches_further_into(tmp_path: Path, paper: int,
+                                                          ink: int, light: bool) -> None:
+    """Polarity is which side of the paper's tone the ink lies, not whether the page is
+    darker than mid-grey: a dim photo of black ink is not inverted."""
+    img = line(line(page(paper=paper), [(60, 100), (340, 100)], ink=ink),
+               [(200, 40), (200, 260)], ink=ink)
+    picture = read_picture(save(tmp_path, img))
+    assert picture.inverted == light
+    assert len(trace_picture(picture).strokes) == 2
+
+
 def test_invert_forces_light_ink_on_dark_paper(tmp_path: Path) -> None:
     img = np.full((300, 400), 20, np.uint8)  # mostly paper, so detection would agree
     path = save(tmp_path, line(img, [(60, 150), (340, 150)], ink=230))

@@ -7,8 +7,12 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    most :data:`WORK_PIXELS`, or refused above :data:`REFUSE_PIXELS`; a truncated file or
    one that is not an image is refused. Alpha is composited over white paper, palettes and
    CMYK converted, 16-bit and float greys scaled to [0, 1].
-2. **Polarity**: the paper is what most of the page is, so a page whose median grey is
-   below ½ is light ink on dark paper and is inverted (``invert=True`` forces it).
+2. **Polarity**: the paper is what most of the page is (its median grey), and the ink is
+   the side of it the page's extremes reach further into: its darkest and lightest
+   :data:`TAIL` (a dim photo of black ink on grey paper is still dark ink; chalk on a
+   blackboard is light ink). Where neither side is clearly further (too little ink to
+   tell), a page whose median grey is below ½ is light ink on dark paper. Light ink is
+   inverted (``invert=True`` forces it).
 3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
    paper itself: the grey image, its grain calmed by a 5 × 5 median, closed (max then
    min) over a window wider than any stroke, the picture's border carried on outward
@@ -52,6 +56,9 @@ WORK_PIXELS = 4_000_000
 REFUSE_PIXELS = 400_000_000
 #: the least darkness, against the paper, that counts as ink
 MIN_CONTRAST = 0.18
+#: share of the page, at each end of its tones, whose distance from the median tells
+#: which side of the paper the ink is (step 2)
+TAIL = 0.005
 #: σ (px) of the Gaussian that calms grain and JPEG noise before half-tones are measured
 DENOISE = 1.0
 #: a page with more ink than this share is not line art
@@ -208,7 +215,7 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     h, w = grey.shape
     if min(h, w) < 8:
         raise InputError(f"{source}: {w} × {h} px is too small to hold a drawing.")
-    inverted = invert or float(np.median(grey)) < 0.5
+    inverted = invert or light_ink(grey)
     if inverted:
         grey = 1.0 - grey
         if not invert:
@@ -223,6 +230,18 @@ def widest_stroke(shape: tuple[int, int]) -> float:
     """The widest strokes (px) line art may have on a page of ``shape``:
     :data:`MAX_WIDTH_SHARE` of its longer side, at least :data:`LEAST_WIDEST`."""
     return max(MAX_WIDTH_SHARE * max(shape), LEAST_WIDEST)
+
+
+def light_ink(grey: np.ndarray) -> bool:
+    """Whether the ink of the page ``grey`` is lighter than its paper (module docstring,
+    step 2): the side of the median its extremes reach further into, when that side
+    reaches at least :data:`MIN_CONTRAST` and twice as far as the other; else whether the
+    median is below ½."""
+    low, paper, high = np.percentile(grey, [100 * TAIL, 50, 100 * (1 - TAIL)])
+    dark, light = paper - low, high - paper
+    if max(dark, light) >= MIN_CONTRAST and max(dark, light) >= 2 * min(dark, light):
+        return bool(light > dark)
+    return bool(paper < 0.5)
 
 
 def paper_window(shape: tuple[int, int]) -> int:
