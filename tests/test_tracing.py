@@ -405,6 +405,8 @@ def png_claiming(w: int, h: int) -> bytes:
     ("photo", "not a line drawing"),
     ("fat-blots", "not a line drawing"),
     ("not-an-image", "not a picture"),
+    ("empty", "the file is empty"),
+    ("folder", "is a folder, not a file"),
     ("truncated-png", "cannot be decoded"),
     ("truncated-jpeg", "cannot be decoded"),
     ("huge", "megapixels"),
@@ -429,6 +431,10 @@ def test_bad_pictures_are_refused_in_one_sentence(tmp_path: Path, case: str,
         cv2.imwrite(str(path), img)
     elif case == "not-an-image":
         path.write_text("<svg>this is no picture</svg>")
+    elif case == "empty":
+        path.write_bytes(b"")
+    elif case == "folder":
+        path.mkdir()
     elif case == "truncated-png":
         cv2.imwrite(str(path), drawing())
         path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])

@@ -17,6 +17,8 @@ def checked_input_file(source: str, holds: str, limit: int | None = None) -> Pat
     hint ("give a GML file that holds {holds}"). ``limit`` overrides MAX_FILE_BYTES."""
     path = Path(source)
     limit = MAX_FILE_BYTES if limit is None else limit
+    if path.is_dir():
+        raise InputError(f"{source}: is a folder, not a file; give the drawing's file.")
     if not path.is_file():
         raise InputError(f"{source}: no such file; check the path.")
     size = path.stat().st_size

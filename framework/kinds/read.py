@@ -55,8 +55,6 @@ def trace_input(source: str, tracer: Any, *, invert: bool = False,
     from inkmotion.tracing import read_picture
 
     path = locate(source)
-    if not Path(path).is_file():
-        raise InputError(f"{path}: no such file; check the path.")
     start = time.perf_counter()
     picture = read_picture(path, invert=invert)
     traces = tracer(picture, varying_width=varying_width, **options)

@@ -54,6 +54,8 @@ SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif", "
 WORK_PIXELS = 4_000_000
 #: larger images are refused (a decompression bomb, or a page scanned far too fine)
 REFUSE_PIXELS = 400_000_000
+#: a picture file may be this large: what is limited is its pixel count (REFUSE_PIXELS)
+PICTURE_FILE_BYTES = 4 * 2**30
 #: the least darkness, against the paper, that counts as ink
 MIN_CONTRAST = 0.18
 #: share of the page, at each end of its tones, whose distance from the median tells
@@ -211,6 +213,10 @@ def _grey_array(img: object) -> np.ndarray:
 def read_picture(source: str, invert: bool = False) -> Picture:
     """The :class:`Picture` of the file ``source`` (module docstring); ``invert`` forces
     light ink on dark paper, otherwise it is detected."""
+    from inkmotion.geometry.input_file import checked_input_file
+
+    # there, no folder, not empty; its size is limited by its pixels, read from its header
+    checked_input_file(source, "a picture of a line drawing", limit=PICTURE_FILE_BYTES)
     grey, scale, notes = decode(source)
     h, w = grey.shape
     if min(h, w) < 8:
