@@ -162,6 +162,7 @@ def test_plugins_lists_built_ins() -> None:
 
 @pytest.mark.parametrize("args, fragment", [
     (["run", "fit", "missing.gml"], "missing.gml: no such input file"),
+    (["run", "fit", "."], ".: is a folder, not a file"),
     (["run", "fit", str(DATA / "malformed.gml")], "malformed.gml"),
     (["run", "fit", str(DATA / "nan.gml")], "nan.gml"),
     (["run", "fit", str(DATA / "same_points.gml")], "same_points.gml"),

@@ -141,5 +141,7 @@ def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> N
         value = locate(value)  # sample:NAME -> its shipped file; an unknown name is refused
         if info.form == "source" and is_scheme(value):
             continue
+        if Path(value).is_dir():
+            raise SpecError(f"{value}: is a folder, not a file; give the drawing's file.")
         if not Path(value).is_file():
             raise SpecError(f"{value}: no such input file; check the path.")
