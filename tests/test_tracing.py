@@ -407,6 +407,7 @@ def png_claiming(w: int, h: int) -> bytes:
     ("not-an-image", "not a picture"),
     ("empty", "the file is empty"),
     ("folder", "is a folder, not a file"),
+    ("mostly-desk", "crop the picture to the paper"),
     ("truncated-png", "cannot be decoded"),
     ("truncated-jpeg", "cannot be decoded"),
     ("huge", "megapixels"),
@@ -435,6 +436,10 @@ def test_bad_pictures_are_refused_in_one_sentence(tmp_path: Path, case: str,
         path.write_bytes(b"")
     elif case == "folder":
         path.mkdir()
+    elif case == "mostly-desk":  # a small white page with a drawing, on a dark desk
+        img = np.full((300, 400), 60, np.uint8)
+        img[90:-90, 90:-90] = 235
+        cv2.imwrite(str(path), line(img, [(150, 150), (250, 150)], width=4))
     elif case == "truncated-png":
         cv2.imwrite(str(path), drawing())
         path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])

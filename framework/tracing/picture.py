@@ -228,7 +228,7 @@ def read_picture(source: str, invert: bool = False) -> Picture:
             notes.append("light ink on dark paper was detected and inverted")
     ink = ink_map(grey)
     mask = ink_mask(ink)
-    _check_line_art(source, ink, mask)
+    _check_line_art(source, ink, mask, inverted and not invert)
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, mask))
 
 
@@ -314,12 +314,19 @@ def _tidy(raw: np.ndarray) -> np.ndarray:
     return np.where(raw > 0, neighbours >= 2, neighbours >= 5)
 
 
-def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray) -> None:
-    """Refuse a blank page, a page of mostly ink, and a picture that is not line art."""
+def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray,
+                    found_light: bool = False) -> None:
+    """Refuse a blank page, a page of mostly ink, and a picture that is not line art;
+    ``found_light``: the page was read as light ink on its own (then a blank page says
+    so, and what to do if the ink is dark)."""
     import cv2
 
     share = float(mask.mean())
     if share == 0.0 or mask.sum() < 16:
+        if found_light:
+            raise InputError(f"{source}: no ink was found on this page, read as light ink on "
+                             "dark paper (most of it is dark); if the ink is dark, crop the "
+                             "picture to the paper it is on.")
         raise InputError(f"{source}: no ink was found on this page (it looks blank); check "
                          "the file, or pass --invert for light ink on dark paper.")
     if share > MAX_INK_SHARE:
