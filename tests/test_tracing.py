@@ -335,15 +335,37 @@ def test_a_small_character_is_traced_not_refused(tmp_path: Path) -> None:
 
 def test_a_hard_shadow_across_the_page_is_not_ink(tmp_path: Path) -> None:
     """A phone's shadow falls across the page with a sharp edge: the paper estimate keeps
-    the edge where it is, so it is not traced as a row of strokes along it."""
+    the edge where it is, so it is not traced as a row of strokes along it. (Where the
+    edge meets the picture's border at a sharp angle, one short false stroke may end at
+    the border: the closing fills the shadow's narrow tip; picture.py, step 3.)"""
     yy, xx = np.mgrid[0:400, 0:600]
     shadow = np.where(xx + 0.6 * yy > 420, 0.55, 1.0)  # its edge runs between the marks
-    for ink, soft in ((30, 0), (140, 0), (140, 6)):  # a pen; a pencil; a softer shadow
+    for ink, soft in ((30, 0), (140, 0), (140, 6), (30, 6)):  # pen, pencil; soft shadows
         img = line(line(page((600, 400)), [(80, 120), (80, 320), (220, 320)], ink=ink),
                    [(380, 100), (520, 300)], ink=ink)
         shade = cv2.GaussianBlur(shadow, (0, 0), soft) if soft else shadow
         strokes = strokes_of(tmp_path, (img * shade).astype(np.uint8))
-        assert len(strokes) == 2, (ink, soft, [s[[0, -1], :2].round().tolist() for s in strokes])
+        found = [s[[0, -1], :2].round().tolist() for s in strokes]
+        drawn = [s for s in strokes if _length_of(s) > 200]
+        false = [s for s in strokes if _length_of(s) <= 200]
+        assert len(drawn) == 2 and len(false) <= 1, (ink, soft, found)
+        for s in false:  # short, and ending at the border
+            assert _length_of(s) < 60 and s[:, 1].max() > 390, (ink, soft, found)
+
+
+@pytest.mark.parametrize("shape", ["T", "O"])
+def test_strokes_along_the_pictures_edge_are_kept(tmp_path: Path, shape: str) -> None:
+    """A drawing cropped to its ink (as an app exports it): a T's bar runs along the top
+    edge, an O touches all four; every stroke is found, none widened into paper."""
+    img = page((300, 200) if shape == "T" else (200, 200))
+    if shape == "T":
+        cv2.line(img, (0, 1), (299, 1), 30, 4)
+        cv2.line(img, (150, 1), (150, 199), 30, 4)
+    else:
+        cv2.circle(img, (100, 100), 97, 30, 5)
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == (2 if shape == "T" else 1), len(strokes)
+    assert sum(_length_of(s) for s in strokes) > (480 if shape == "T" else 580)
 
 
 def test_a_page_on_a_desk_is_traced_without_the_desk(tmp_path: Path) -> None:

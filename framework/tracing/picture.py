@@ -15,10 +15,12 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    inverted (``invert=True`` forces it).
 3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
    paper itself: the grey image, its grain calmed by a 5 × 5 median, closed (max then
-   min) over a window wider than any stroke, the picture's border carried on outward
-   first; the ink is then 1 − grey / paper, in [0, 1]. Both keep the paper's own edges
-   (a hard shadow across the page, the edge of a photographed page) where they are: a
-   blur spills an edge's bright side into its dark side, read as a line of ink along it.
+   min) over a window wider than any stroke; the ink is then 1 − grey / paper, in
+   [0, 1]. Both keep the paper's own edges (a hard shadow across the page, the edge of a
+   photographed page) where they are: a blur spills an edge's bright side into its dark
+   side, read as a line of ink along it. (Where a hard shadow's edge meets the picture's
+   border at a sharp angle, the closing still fills the shadow's narrow tip: a short
+   false stroke ends there.)
 4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), burrs and notches of JPEG noise evened out (:func:`_tidy`,
    which keeps a line one pixel wide whole), small specks removed and pin-holes filled
@@ -264,10 +266,9 @@ def ink_map(grey: np.ndarray) -> np.ndarray:
     k = paper_window(grey.shape)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
     calm = cv2.medianBlur(grey, 5)  # a max over grain would lift the paper (step 3)
-    # the closing removes the dark strokes; the page's border is carried on outward first
-    # (a window cut short there would lift a shadow's corner into false ink)
-    padded = cv2.copyMakeBorder(calm, k, k, k, k, cv2.BORDER_REPLICATE)
-    paper = cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[k:-k, k:-k]
+    # the closing removes the dark strokes; its window is cut short at the border (the
+    # border carried on outward would widen a stroke that runs along it into paper)
+    paper = cv2.morphologyEx(calm, cv2.MORPH_CLOSE, kernel)
     return np.clip(1.0 - grey / np.maximum(paper, 1e-3), 0.0, 1.0).astype(np.float32)
 
 
