@@ -49,6 +49,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from inkmotion.errors import InputError
+from inkmotion.geometry.input_file import checked_input_file
 
 #: file suffixes read as pictures
 SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif", ".pgm", ".ppm")
@@ -215,8 +216,6 @@ def _grey_array(img: object) -> np.ndarray:
 def read_picture(source: str, invert: bool = False) -> Picture:
     """The :class:`Picture` of the file ``source`` (module docstring); ``invert`` forces
     light ink on dark paper, otherwise it is detected."""
-    from inkmotion.geometry.input_file import checked_input_file
-
     # there, no folder, not empty; its size is limited by its pixels, read from its header
     checked_input_file(source, "a picture of a line drawing", limit=PICTURE_FILE_BYTES)
     grey, scale, notes = decode(source)
@@ -228,10 +227,14 @@ def read_picture(source: str, invert: bool = False) -> Picture:
         grey = 1.0 - grey
         if not invert:
             notes.append("light ink on dark paper was detected and inverted")
+    import cv2
+
     ink = ink_map(grey)
     mask = ink_mask(ink)
-    _check_line_art(source, ink, mask, inverted and not invert)
-    return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, mask))
+    # each ink pixel's distance to the paper, read by the line-art check and the ink level
+    depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    _check_line_art(source, ink, mask, depth, inverted and not invert)
+    return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth))
 
 
 def widest_stroke(shape: tuple[int, int]) -> float:
@@ -289,13 +292,10 @@ def ink_mask(ink: np.ndarray) -> np.ndarray:
     return remove_small_holes(mask, max_size=speck)
 
 
-def ink_level(ink: np.ndarray, mask: np.ndarray) -> float:
+def ink_level(ink: np.ndarray, depth: np.ndarray) -> float:
     """The darkness of solid ink (module docstring, step 5): the median of ``ink`` over the
-    pixels of ``mask`` at least :data:`SOLID_DEPTH` px from its edge; 1 with fewer than
-    :data:`SOLID_LEAST` of them."""
-    import cv2
-
-    depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    ink pixels at least :data:`SOLID_DEPTH` px from the paper (``depth``, the mask's
+    distance transform); 1 with fewer than :data:`SOLID_LEAST` of them."""
     solid = ink[depth >= SOLID_DEPTH]
     if solid.size < SOLID_LEAST:
         return 1.0
@@ -315,11 +315,12 @@ def _tidy(raw: np.ndarray) -> np.ndarray:
     return np.where(raw > 0, neighbours >= 2, neighbours >= 5)
 
 
-def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray,
+def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.ndarray,
                     found_light: bool = False) -> None:
-    """Refuse a blank page, a page of mostly ink, and a picture that is not line art;
-    ``found_light``: the page was read as light ink on its own (then a blank page says
-    so, and what to do if the ink is dark)."""
+    """Refuse a blank page, a page of mostly ink, and a picture that is not line art
+    (``depth``: the mask's distance transform); ``found_light``: the page was read as
+    light ink on its own (then a blank page says so, and what to do if the ink is
+    dark)."""
     import cv2
 
     share = float(mask.mean())
@@ -340,8 +341,7 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray,
         raise InputError(f"{source}: {100 * mid:.0f} % of the page is in half-tones, not "
                          "a line drawing (a photo is drawn by the 'abstract' kind); use a "
                          "picture of line art on plain paper.")
-    dist = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    widest = 2.0 * float(np.percentile(dist[mask], 95))
+    widest = 2.0 * float(np.percentile(depth[mask], 95))
     if widest > widest_stroke(mask.shape):
         raise InputError(f"{source}: the dark areas are {widest:.0f} px wide, too wide for "
                          "line art on a page this size, so this is not a line drawing; use "
