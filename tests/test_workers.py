@@ -417,3 +417,22 @@ def test_submit_abstract_of_a_photo_runs_on_a_worker(workers, service_env, tmp_p
     assert json.loads((artifacts / "job.json").read_text())["clip_weights"] == "random"
     assert len(json.loads((artifacts / "plan.json").read_text())["paths"]) == 1
     assert r.metrics["moves"] == 19
+
+
+def test_submit_fit_of_a_picture_runs_on_a_worker(workers, service_env, tmp_path):
+    """A picture through the queue: the file is copied into the job (the user's may go
+    away), the worker traces it and fits the picture, and the record holds the extraction."""
+    import inkmotion.samples as samples
+
+    picture = tmp_path / "brush-scan.png"
+    shutil.copy(Path(samples.__file__).parent / "brush-scan.png", picture)
+    (job_id,) = submit(str(picture), "--steps", "4")
+    picture.unlink()
+    wait_succeeded(job_id)
+    r = store.get_job(job_id)
+    copy = (Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "input" / "drawing"
+            / "brush-scan.png")
+    assert r.spec["inputs"] == {"drawing": str(copy)} and copy.is_file()
+    artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))
+    report = json.loads((artifacts / "report.json").read_text())
+    assert report["extraction"]["strokes"] >= 1 and r.metrics["moves"] >= 1
