@@ -54,6 +54,7 @@ class GenerationParams(OptimisationParams):
                                "Weight of the image (CLIP) loss.")
     w_sigma: float = redefault(OptimisationParams, "w_sigma", 50.0)
     lr_points: float = redefault(OptimisationParams, "lr_points", 1.0)
+    lr_final: float = redefault(OptimisationParams, "lr_final", 0.1)
     targets: int = param(30, "Number of virtual targets (sub-movements) to start from.",
                          minimum=1, maximum=5000)
     varying_width: bool = param(False, "Optimise the stroke radius along the path (2.5D).")

@@ -44,9 +44,10 @@ class OptimisationParams:
     plan. The defaults are the fit's (:class:`inkmotion.kinds.fit.FitParams` says why); a
     kind with other defaults declares them with :func:`inkmotion.jobs.params.redefault`.
     ``earlier`` holds the fit's defaults of spec version 2 (the authors': 300 steps,
-    λ = 20, w_σ = 50)."""
+    λ = 20, w_σ = 50) and of versions 3–6 (600 steps decaying to 0.1)."""
 
-    steps: int = param(600, "Adam steps.", minimum=1, maximum=100_000, earlier={2: 300})
+    steps: int = param(400, "Adam steps.", minimum=1, maximum=100_000,
+                       earlier={2: 300, 6: 600})
     size: int = param(350, "Canvas longer side, px.", minimum=32, maximum=4096)
     width: float = param(3.0, "Stroke width, px.", minimum=0.01, maximum=256)
     lambda_smooth: float = param(45.0, "Weight λ of the smoothing (minimum-time) cost.",
@@ -61,8 +62,8 @@ class OptimisationParams:
     lr_delta: float = param(0.1, "Learning rate of the turning angles δ.", minimum=0)
     lr_ac: float = param(0.0, "Learning rate of the shapes Ac (0 keeps them fixed).",
                          minimum=0)
-    lr_final: float = param(0.1, "Cosine decay of the learning rates to this fraction.",
-                            minimum=0, maximum=1)
+    lr_final: float = param(0.3, "Cosine decay of the learning rates to this fraction.",
+                            minimum=0, maximum=1, earlier={6: 0.1})
     samples_per_move: int = param(5, "Bézier segments per lognormal on the fitting grid.",
                                   minimum=1, maximum=100)
     renderer: PluginChoice = plugin_param("renderer", "raster", "Renderer plugin.")
