@@ -21,14 +21,17 @@ class FitKind:
     """The 'fit' job kind (:mod:`inkmotion.kinds.fit`)."""
 
     name = "fit"
-    description = "Fit a ΣΛ motion to a drawing: a GML/JSON tag, an SVG or text:WORD."
+    description = ("Fit a ΣΛ motion to a drawing: a GML/JSON tag, an SVG, text:WORD or a "
+                   "picture of line art (PNG, JPEG, ...).")
     queue = "optimise"
-    inputs = (InputSpec("drawing", "A GML/JSON/SVG file, sample:NAME (`inkmotion samples`) "
-                                 "or text:WORD."),)
+    inputs = (InputSpec("drawing", "A GML/JSON/SVG file, a picture of line art (PNG, JPEG, "
+                                 "...; traced first, see `inkmotion trace`), sample:NAME "
+                                 "(`inkmotion samples`) or text:WORD."),)
     Params = FitParams
     examples = (
         "inkmotion run fit text:hello --out results/hello",
         "inkmotion run fit sample:tempt-1 --out results/tag --steps 300",
+        "inkmotion run fit my_drawing.jpg --out results/picture --varying-width",
         "inkmotion run fit my_tag.gml --out results/smoother --lambda 150 --size 500",
         "inkmotion run fit sample:tempt-3 --out results/sparse --dce-relevance 5",
         "inkmotion run fit sample:tempt-3 --out results/thirty --targets 30",

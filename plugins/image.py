@@ -40,11 +40,12 @@ class SkeletonTracer:
 
 
 class ImageReader:
-    """Reads PNG, JPEG, BMP, TIFF, WebP pictures of line drawings into traces."""
+    """Reads PNG, JPEG, BMP, TIFF, WebP, AVIF (HEIC with pillow-heif) pictures of line
+    drawings into traces."""
 
     name = "image"
-    description = ("Pictures of line drawings (PNG, JPEG, BMP, TIFF, WebP): dark ink on "
-                   "light paper, or light on dark (detected), traced by 'skeleton'.")
+    description = ("Pictures of line drawings (PNG, JPEG, BMP, TIFF, WebP, AVIF): dark ink "
+                   "on light paper, or light on dark (detected), traced by 'skeleton'.")
 
     def can_read(self, source: str) -> bool:
         """True for paths with a picture's suffix."""

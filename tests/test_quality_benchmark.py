@@ -105,8 +105,10 @@ def test_folders_expand_to_their_drawings(tmp_path: Path) -> None:
     (tmp_path / "b.gml").write_text("")
     (tmp_path / "a.json").write_text("")
     (tmp_path / "notes.txt").write_text("")
+    (tmp_path / "scan.PNG").write_bytes(b"")  # a picture of a drawing (checked when read)
     assert bm.expand_inputs([str(tmp_path), "text:x"]) == [
-        str(tmp_path / "a.json"), str(tmp_path / "b.gml"), "text:x"]
+        str(tmp_path / "a.json"), str(tmp_path / "b.gml"), str(tmp_path / "scan.PNG"),
+        "text:x"]
     empty = tmp_path / "empty"
     empty.mkdir()
     with pytest.raises(InputError):

@@ -196,6 +196,18 @@ def test_svg_subpaths_curves_and_transforms():
     np.testing.assert_allclose(poly, [[5, 95], [20, 90], [35, 95]])
 
 
+def test_svg_of_filled_shapes_says_it_is_drawn_along_their_outlines(tmp_path: Path):
+    """A logo exported as filled areas with no stroke: its outlines are the strokes, and
+    the reader says so (the fit's report and console carry it as a warning)."""
+    filled = tmp_path / "logo.svg"
+    filled.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 50">'
+                      '<path d="M 10 10 L 40 10 L 40 15 L 28 15 L 28 40 L 22 40 L 22 15 '
+                      'L 10 15 Z" fill="black"/></svg>')
+    t = read_svg(str(filled))
+    assert len(t.strokes) == 1 and "outlines" in t.meta["notes"][0]
+    assert "notes" not in read_svg(data("shapes.svg")).meta  # stroked: nothing to say
+
+
 def test_svg_nested_transform():
     t = read_svg(data("transformed.svg"))
     np.testing.assert_allclose(t.strokes[0], [[50, 50], [70, 50]])

@@ -272,7 +272,8 @@ def drawing() -> np.ndarray:
 
 
 @pytest.mark.parametrize("form", ["grey", "rgb", "rgba", "16bit", "palette", "jpeg70",
-                                  "light-on-dark", "uneven-light"])
+                                  "light-on-dark", "uneven-light", "phone-portrait",
+                                  "mirrored", "avif", "white-on-transparent"])
 def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str) -> None:
     grey = drawing()
     path = tmp_path / "in.png"
@@ -282,6 +283,10 @@ def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str)
         cv2.imwrite(str(path), cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR))
     elif form == "rgba":  # black ink on a transparent page
         rgba = np.zeros(grey.shape + (4,), np.uint8)
+        rgba[..., 3] = 255 - grey
+        Image.fromarray(rgba, "RGBA").save(path)
+    elif form == "white-on-transparent":  # a white logo's export: over white it vanishes
+        rgba = np.full(grey.shape + (4,), 255, np.uint8)
         rgba[..., 3] = 255 - grey
         Image.fromarray(rgba, "RGBA").save(path)
     elif form == "16bit":
@@ -296,8 +301,25 @@ def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str)
     elif form == "uneven-light":
         ramp = np.linspace(1.0, 0.45, grey.shape[1])[None, :]
         cv2.imwrite(str(path), (grey * ramp).astype(np.uint8))
+    elif form in ("phone-portrait", "mirrored"):  # stored turned, with the EXIF tag saying
+        # how to show it upright (6: a quarter turn clockwise; 2: mirrored left to right)
+        path = tmp_path / "in.jpg"
+        tag, stored = ((6, Image.fromarray(grey).transpose(Image.Transpose.ROTATE_90))
+                       if form == "phone-portrait" else
+                       (2, Image.fromarray(grey).transpose(Image.Transpose.FLIP_LEFT_RIGHT)))
+        exif = Image.Exif()
+        exif[0x0112] = tag
+        stored.save(path, quality=90, exif=exif)
+    elif form == "avif":
+        from PIL import features
+
+        if not features.check("avif"):
+            pytest.skip("this Pillow was built without AVIF")
+        path = tmp_path / "in.avif"
+        Image.fromarray(grey).save(path, quality=90)
     picture = read_picture(str(path))
-    assert picture.inverted == (form == "light-on-dark")
+    assert picture.mask.shape == grey.shape and picture.scale == 1.0, form
+    assert picture.inverted == (form in ("light-on-dark", "white-on-transparent"))
     strokes = trace_picture(picture).strokes
     assert len(strokes) == 2, form
     ends = sorted(tuple(np.round(s[[0, -1], :2].ravel() / 20)) for s in strokes)
@@ -434,12 +456,23 @@ def png_claiming(w: int, h: int) -> bytes:
     ("truncated-jpeg", "cannot be decoded"),
     ("huge", "megapixels"),
     ("tiny", "too small"),
+    ("heic-photo", "HEIC/HEIF photo"),
+    ("pdf-scan", "export its page as PNG or JPEG"),
 ])
 def test_bad_pictures_are_refused_in_one_sentence(tmp_path: Path, case: str,
                                                   words: str) -> None:
-    path = tmp_path / ("in.jpg" if case == "truncated-jpeg" else "in.png")
+    path = tmp_path / {"truncated-jpeg": "in.jpg", "heic-photo": "IMG_0001.HEIC",
+                       "pdf-scan": "scan.pdf"}.get(case, "in.png")
     rng = np.random.default_rng(0)
-    if case == "blank":
+    if case == "heic-photo":  # an iPhone's photo: read only through pillow-heif
+        import importlib.util
+
+        if importlib.util.find_spec("pillow_heif") is not None:
+            pytest.skip("pillow-heif is installed here, so a HEIC photo is read")
+        path.write_bytes(b"\0\0\0\x18ftypheic\0\0\0\0mif1heic" + bytes(64))
+    elif case == "pdf-scan":
+        path.write_bytes(b"%PDF-1.4\n%\xe2\xe3\xcf\xd3\n1 0 obj\n<<>>\nendobj\n")
+    elif case == "blank":
         cv2.imwrite(str(path), page())
     elif case == "all-ink":
         cv2.imwrite(str(path), page(paper=235) // 8 + np.uint8(

@@ -47,7 +47,8 @@ from typing import Any
 
 from inkmotion.errors import InkmotionError, InputError, SpecError
 
-#: extensions of the drawings a folder input expands to
+#: extensions of the recorded drawings a folder input expands to (and pictures of drawings,
+#: :data:`inkmotion.tracing.picture.SUFFIXES`)
 DRAWING_SUFFIXES = (".json", ".gml", ".svg")
 #: coverage above which a pixel counts as ink for the IoU
 INK_THRESHOLD = 0.5
@@ -92,17 +93,20 @@ SUMMARY_FILES = ("summary.json", "summary.csv", "summary.md", "summary.html")
 
 
 def expand_inputs(inputs: Iterable[str]) -> list[str]:
-    """Inputs as single sources: a folder becomes its *.json/*.gml/*.svg files (sorted);
-    files and ``scheme:value`` strings pass through (a missing file fails in its own row)."""
+    """Inputs as single sources: a folder becomes its drawings, *.json/*.gml/*.svg and
+    pictures (PNG, JPEG, ...), sorted; files and ``scheme:value`` strings pass through (a
+    missing file fails in its own row)."""
+    from inkmotion.tracing.picture import SUFFIXES as PICTURES
+
     sources: list[str] = []
     for item in inputs:
         p = Path(item)
         if p.is_dir():
             found = sorted(str(f) for f in p.iterdir()
-                           if f.is_file() and f.suffix.lower() in DRAWING_SUFFIXES)
+                           if f.is_file() and f.suffix.lower() in DRAWING_SUFFIXES + PICTURES)
             if not found:
                 raise InputError(f"{item}: the folder holds no {'/'.join(DRAWING_SUFFIXES)} "
-                                 "file; give drawings or a folder of them.")
+                                 "file and no picture; give drawings or a folder of them.")
             sources.extend(found)
         else:
             sources.append(item)

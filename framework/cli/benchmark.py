@@ -43,7 +43,8 @@ class BenchmarkCommand(TyperCommand):
 
 def benchmark_cmd(
     inputs: Annotated[list[str], typer.Argument(
-        help="Drawings (GML/JSON/SVG), folders of them, sample:NAME or text:WORD.",
+        help="Drawings (GML/JSON/SVG, or pictures of line art: PNG, JPEG, ...), folders of "
+             "them, sample:NAME or text:WORD.",
         show_default=False)],
     out_dir: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         "--out", help="Output folder: one folder per item and summary.{json,csv,md,html}.")

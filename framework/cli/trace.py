@@ -16,7 +16,7 @@ from inkmotion.errors import InkmotionError
 
 def trace_cmd(
     image: Annotated[str, typer.Argument(help="A picture of a line drawing (PNG, JPEG, BMP, "
-                                              "TIFF, WebP) or sample:NAME.")],
+                                              "TIFF, WebP, AVIF) or sample:NAME.")],
     out: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         "--out", help="Folder to write strokes.svg, strokes.gml, strokes.png and "
                       "extraction.json into.")] = None,

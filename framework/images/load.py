@@ -2,6 +2,8 @@
 
 Grey images become three equal channels, 16-bit images are scaled by 1/65535, and an alpha
 channel is composited over white paper (a transparent background is paper, not black).
+A photo is turned the way its EXIF orientation tag says (a phone stores a portrait photo as
+landscape pixels and the tag; every viewer shows it upright, and so is it drawn).
 An unreadable, empty or degenerate file is refused with one sentence naming it.
 """
 
@@ -13,6 +15,7 @@ import numpy as np
 import torch
 
 from inkmotion.errors import InputError
+from inkmotion.images.orientation import exif_orientation, upright
 
 #: longest side accepted before resizing: a bigger image is almost surely a mistake
 MAX_SIDE = 20_000
@@ -33,6 +36,7 @@ def read_rgb(path: str | Path) -> np.ndarray:
         raise InputError(f"{path}: not an image OpenCV can read; give a PNG or JPEG image.")
     if raw.ndim == 2:
         raw = raw[:, :, None]
+    raw = upright(raw, exif_orientation(memoryview(data)))
     h, w, channels = raw.shape
     if min(h, w) < 2 or max(h, w) > MAX_SIDE:
         raise InputError(f"{path}: a {w}×{h} image is too small or too large; give an image "

@@ -6,10 +6,13 @@ Parsing, units, ``viewBox`` and nested ``transform`` attributes are handled by
 transform into the geometry). Every visible shape (``path``, ``polyline``, ``polygon``,
 ``line``, ``rect``, ``circle``, ``ellipse``, shapes reached through ``use``) becomes a
 path; each subpath (a ``M`` … run) becomes one stroke. Closed subpaths end at their start
-point. Curves (quadratic, cubic, elliptical arcs) are flattened by adaptive subdivision
-until every interval's midpoint lies within ``tol`` of its chord, where ``tol`` is
-``FLATNESS`` times the drawing's bounding-box diagonal (scale-free, so the same file at
-any size flattens to the same polyline shape). Coordinates are SVG user units, y down.
+point. A drawing whose every shape is a filled area with no stroke (a logo, text turned
+into paths) is drawn along its outlines, and ``meta["notes"]`` says so and how to fit the
+centre lines instead (its picture, traced). Curves (quadratic, cubic, elliptical arcs)
+are flattened by adaptive subdivision until every interval's midpoint lies within ``tol``
+of its chord, where ``tol`` is ``FLATNESS`` times the drawing's bounding-box diagonal
+(scale-free, so the same file at any size flattens to the same polyline shape).
+Coordinates are SVG user units, y down.
 """
 
 from __future__ import annotations
@@ -37,23 +40,34 @@ def read_svg(source: str) -> Traces:
     with reader_boundary(source, "SVG", "check that it is a complete, well-formed SVG file."):
         import svgelements as se
 
-        strokes = _flatten(se.SVG.parse(str(path)), se, source)
+        shapes = _visible_shapes(se.SVG.parse(str(path)), se)
+        strokes = _flatten(shapes, se, source)
+        filled = bool(shapes) and all(  # filled areas with no stroke: a logo's export
+            el.fill is not None and el.fill.value is not None
+            and (el.stroke is None or el.stroke.value is None) for el in shapes)
     if not strokes:
         raise InputError(
             f"{source}: the SVG holds no paths or shapes, so there is nothing to draw; "
             "convert text and images to paths first."
         )
-    return Traces(strokes, source=source, meta={"format": "svg"}).validated()
+    meta: dict[str, Any] = {"format": "svg"}
+    if filled:
+        meta["notes"] = ["its shapes are filled areas with no stroke, so the motion follows "
+                         "their outlines; to draw their centre lines instead, export the "
+                         "drawing as a PNG and give that"]
+    return Traces(strokes, source=source, meta=meta).validated()
 
 
-def _flatten(svg: Any, se: Any, source: str) -> list[np.ndarray]:
-    """All visible shapes of ``svg`` as polylines (one per subpath)."""
+def _visible_shapes(svg: Any, se: Any) -> list[Any]:
+    """The shapes of ``svg`` that are drawn (``visibility`` not hidden)."""
+    return [el for el in svg.elements() if isinstance(el, se.Shape)
+            and str(el.values.get("visibility", "visible")) != "hidden"]
+
+
+def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
+    """The ``shapes`` (:func:`_visible_shapes`) as polylines (one per subpath)."""
     paths = []
-    for el in svg.elements():
-        if not isinstance(el, se.Shape):
-            continue
-        if str(el.values.get("visibility", "visible")) == "hidden":
-            continue
+    for el in shapes:
         path = el if isinstance(el, se.Path) else se.Path(el)
         if len(path) == 0:
             continue

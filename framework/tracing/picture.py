@@ -5,8 +5,11 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
 1. **Decode** with Pillow: the pixel count is read from the header first, so a huge
    image is reduced while it is decoded (JPEG draft mode, else ``Image.reduce``) to at
    most :data:`WORK_PIXELS`, or refused above :data:`REFUSE_PIXELS`; a truncated file or
-   one that is not an image is refused. Alpha is composited over white paper, palettes and
-   CMYK converted, 16-bit and float greys scaled to [0, 1].
+   one that is not an image is refused. Alpha is composited over white paper (black
+   under light strokes: a white logo on a transparent background), palettes and CMYK
+   converted, 16-bit and float greys scaled to [0, 1]; a photo whose EXIF
+   orientation says it is stored turned or mirrored (a phone's portrait photo) is turned
+   upright, as every viewer shows it, so its strokes run the way the user sees them.
 2. **Polarity**: the paper is what most of the page is (its median grey), and the ink is
    the side of it the page's extremes reach further into: its darkest and lightest
    :data:`TAIL` (a dim photo of black ink on grey paper is still dark ink; chalk on a
@@ -51,8 +54,14 @@ import numpy as np
 from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import checked_input_file
 
-#: file suffixes read as pictures
-SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif", ".pgm", ".ppm")
+#: file suffixes read as pictures (HEIC/HEIF only with the pillow-heif plugin installed;
+#: without it such a photo is refused in one sentence saying what to do; a PDF, which a
+#: scanner often writes, is refused with how to export its page as a picture)
+SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif", ".pgm", ".ppm",
+            ".avif", ".jp2", ".heic", ".heif", ".pdf")
+#: the ISO media brands of a HEIF file's 'ftyp' box (an iPhone's photos), which Pillow
+#: reads only through pillow-heif
+HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"mif1", b"msf1")
 #: larger images are reduced to about this many pixels as they are decoded (said in notes)
 WORK_PIXELS = 4_000_000
 #: larger images are refused (a decompression bomb, or a page scanned far too fine)
@@ -123,6 +132,12 @@ def open_picture(file: str | BinaryIO, shown: str) -> Iterator[Any]:
     check is this limit, read from the header before any pixel is decoded)."""
     from PIL import Image, UnidentifiedImageError
 
+    head = _head(file)
+    if head.startswith(b"%PDF"):
+        raise InputError(f"{shown}: a PDF, not a picture; export its page as PNG or JPEG "
+                         "(with `pdftoppm -png -r 300 FILE page`, say) and give that.")
+    if head[4:8] == b"ftyp" and head[8:12] in HEIF_BRANDS:
+        _register_heif(shown)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
@@ -138,10 +153,38 @@ def open_picture(file: str | BinaryIO, shown: str) -> Iterator[Any]:
         raise
     except UnidentifiedImageError:
         raise InputError(f"{shown}: not a picture this can read (PNG, JPEG, BMP, TIFF, "
-                         "WebP); check the file.") from None
+                         "WebP, AVIF); check the file.") from None
     except (OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{shown}: the picture cannot be decoded ({_reason(exc)}); it may be "
                          "truncated or damaged, so export it again.") from None
+
+
+def _head(file: str | BinaryIO) -> bytes:
+    """The file's first 12 bytes, by which a PDF or a HEIF photo is known whatever its
+    name (b"" when it cannot be read: Pillow's open then says why); a file object's
+    position is kept."""
+    try:
+        if isinstance(file, str):
+            with open(file, "rb") as f:
+                return f.read(12)
+        at = file.tell()
+        head = file.read(12)
+        file.seek(at)
+        return head
+    except OSError:
+        return b""
+
+
+def _register_heif(shown: str) -> None:
+    """Let Pillow read HEIF through pillow-heif, or refuse the photo ``shown`` in one
+    sentence when that plugin is not installed."""
+    try:
+        import pillow_heif  # type: ignore[import-not-found]
+    except ImportError:
+        raise InputError(f"{shown}: a HEIC/HEIF photo (an iPhone's default format) cannot be "
+                         "read without the pillow-heif package; export it as JPEG or PNG, or "
+                         "`pip install pillow-heif`.") from None
+    pillow_heif.register_heif_opener()
 
 
 def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
@@ -149,9 +192,12 @@ def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
     the file's, and notes (module docstring, step 1)."""
     from PIL import Image
 
+    from inkmotion.images.orientation import orientation_of, upright
+
     notes: list[str] = []
     with open_picture(source, source) as img:
         w, h = img.size
+        orientation = orientation_of(img)  # applied to the decoded grey array
         factor = max(1, math.ceil(math.sqrt(w * h / WORK_PIXELS)))
         if factor > 1 and img.format == "JPEG":
             img.draft("L", (w // factor, h // factor))
@@ -163,10 +209,14 @@ def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
                 img = img.reduce(step)
             if img.size[0] * img.size[1] > 1.05 * WORK_PIXELS:
                 img = img.resize((w // factor, h // factor), Image.Resampling.BOX)
-            notes.append(f"the picture ({w} × {h} px) was reduced to "
-                         f"{img.size[0]} × {img.size[1]} px to trace it")
-        grey = _grey_array(img)
-        scale = img.size[0] / w
+        grey = np.ascontiguousarray(upright(_grey_array(img), orientation))
+    width, height = (w, h) if orientation < 5 else (h, w)  # the file's, as shown
+    if factor > 1:
+        notes.append(f"the picture ({width} × {height} px) was reduced to "
+                     f"{grey.shape[1]} × {grey.shape[0]} px to trace it")
+    scale = grey.shape[1] / width
+    if orientation != 1:
+        notes.append("the picture was turned upright as its EXIF orientation says")
     return grey, scale, notes
 
 
@@ -176,8 +226,11 @@ def _reason(exc: BaseException) -> str:
 
 
 def _flatten(img: object) -> object:
-    """The image in mode 'L', 'I;16'-like 'I' or 'F': alpha composited over white, palettes
-    and colour converted to luminance."""
+    """The image in mode 'L', 'I;16'-like 'I' or 'F': palettes and colour converted to
+    luminance, alpha composited over a paper of the opposite tone to what it shows: white
+    under dark strokes (an app's export), black under light ones (a white logo on a
+    transparent background, which over white would vanish), so the drawing is the
+    visible part either way; polarity is then detected as for any picture."""
     from PIL import Image
 
     assert isinstance(img, Image.Image)
@@ -187,7 +240,11 @@ def _flatten(img: object) -> object:
         mode = img.mode
     if mode in ("RGBA", "LA", "RGBa", "La", "PA"):
         img = img.convert("RGBA")
-        paper = Image.new("RGBA", img.size, (255, 255, 255, 255))
+        alpha = np.asarray(img.getchannel("A"), np.float32)
+        tone = np.asarray(img.convert("L"), np.float32)
+        shown = float((alpha * tone).sum() / max(float(alpha.sum()), 1.0))  # 0–255
+        under = 0 if shown > 127.5 else 255
+        paper = Image.new("RGBA", img.size, (under, under, under, 255))
         img = Image.alpha_composite(paper, img).convert("L")
     elif mode in ("RGB", "CMYK", "YCbCr", "LAB", "HSV", "RGBX", "1"):
         img = img.convert("L")
