@@ -6,6 +6,7 @@ the plan to the plotter)."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import subprocess
@@ -93,6 +94,32 @@ def _png_claiming(w: int, h: int) -> bytes:
 def test_a_bad_upload_is_refused_in_one_sentence(name, data, words):
     with pytest.raises(InputError) as info:
         check_upload(name, data, 1 * MB)
+    assert words in str(info.value)
+
+
+@pytest.mark.parametrize("name, fmt", [
+    ("phone.avif", "AVIF"), ("scan.gif", "GIF"), ("grey.ppm", "PPM"), ("page.jp2", "JPEG2000"),
+    ("photo.webp", "WEBP"), ("sketch.png", "PNG")])
+def test_every_picture_the_tracer_reads_can_be_uploaded(name, fmt):
+    from PIL import Image
+
+    from inkmotion.studio.uploads import KINDS
+    from inkmotion.tracing.picture import SUFFIXES
+
+    assert set(SUFFIXES) <= set(KINDS)  # one list: the tracer's
+    buffer = io.BytesIO()
+    Image.new("L", (64, 48), 255).save(buffer, fmt)
+    assert check_upload(name, buffer.getvalue(), MB) == name
+
+
+@pytest.mark.parametrize("name, data, words", [
+    ("page.pdf", b"%PDF-1.7\n...", "export its page as PNG or JPEG"),
+    ("photo.avif", b"not an avif at all", "not a picture this can read"),
+    ("scan.gif", PNG + b"...", "not a GIF picture"),
+])
+def test_a_picture_upload_that_cannot_be_traced_says_what_to_do(name, data, words):
+    with pytest.raises(InputError) as info:
+        check_upload(name, data, MB)
     assert words in str(info.value)
 
 

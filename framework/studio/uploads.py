@@ -17,15 +17,33 @@ from pathlib import Path
 
 from inkmotion.errors import InputError
 
-#: suffix -> (kind, the first bytes it may start with; empty: text)
-KINDS: dict[str, tuple[str, tuple[bytes, ...]]] = {
-    ".gml": ("tag", ()), ".json": ("tag", ()), ".xml": ("tag", ()), ".svg": ("svg", ()),
-    ".png": ("picture", (b"\x89PNG\r\n\x1a\n",)),
-    ".jpg": ("picture", (b"\xff\xd8\xff",)), ".jpeg": ("picture", (b"\xff\xd8\xff",)),
-    ".bmp": ("picture", (b"BM",)), ".webp": ("picture", (b"RIFF",)),
-    ".tif": ("picture", (b"II*\x00", b"MM\x00*")),
-    ".tiff": ("picture", (b"II*\x00", b"MM\x00*")),
+#: the Netpbm family's headers: a .ppm may hold a grey P5 (Pillow writes one)
+NETPBM = tuple(b"P%d" % k for k in range(1, 7))
+#: the first bytes a picture of these suffixes starts with; a picture suffix not listed
+#: here (an AVIF or HEIC photo, whose header is a box of variable size, a PDF page) is
+#: judged by its content as the tracer opens it
+PICTURE_MAGIC: dict[str, tuple[bytes, ...]] = {
+    ".png": (b"\x89PNG\r\n\x1a\n",), ".jpg": (b"\xff\xd8\xff",), ".jpeg": (b"\xff\xd8\xff",),
+    ".bmp": (b"BM",), ".webp": (b"RIFF",), ".gif": (b"GIF87a", b"GIF89a"),
+    ".tif": (b"II*\x00", b"MM\x00*"), ".tiff": (b"II*\x00", b"MM\x00*"),
+    ".pgm": NETPBM, ".ppm": NETPBM,
 }
+
+
+def _kinds() -> dict[str, tuple[str, tuple[bytes, ...]]]:
+    """suffix -> (kind, the first bytes it may start with; empty: text, or a picture judged
+    by its content): the recorded drawings, and every picture the tracer reads
+    (:data:`inkmotion.tracing.picture.SUFFIXES`)."""
+    from inkmotion.tracing.picture import SUFFIXES
+
+    kinds: dict[str, tuple[str, tuple[bytes, ...]]] = {
+        ".gml": ("tag", ()), ".json": ("tag", ()), ".xml": ("tag", ()), ".svg": ("svg", ())}
+    kinds.update({s: ("picture", PICTURE_MAGIC.get(s, ())) for s in SUFFIXES})
+    return kinds
+
+
+#: suffix -> (kind, the first bytes it may start with), see :func:`_kinds`
+KINDS = _kinds()
 _SAFE = re.compile(r"[^A-Za-z0-9_-]+")
 
 
