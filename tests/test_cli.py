@@ -161,7 +161,7 @@ def test_plugins_lists_built_ins() -> None:
 
 
 @pytest.mark.parametrize("args, fragment", [
-    (["run", "fit", "missing.gml"], "missing.gml: no such input file"),
+    (["run", "fit", "missing.gml"], "missing.gml: no such file"),
     (["run", "fit", "."], ".: is a folder, not a file"),
     (["run", "fit", str(DATA / "malformed.gml")], "malformed.gml"),
     (["run", "fit", str(DATA / "nan.gml")], "nan.gml"),

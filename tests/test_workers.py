@@ -107,7 +107,7 @@ def test_batch_of_words_is_one_job_per_word(workers, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["text:hi", "--steps", "0"], "steps=0"),
-    (["/no/such/file.gml"], "no such input file"),
+    (["/no/such/file.gml"], "no such file; check the path"),
     (["text:hi", "--renderer", "nope"], "renderer"),
     (["text:hi", "--size", "10"], "size=10"),
 ])

@@ -12,15 +12,25 @@ from inkmotion.errors import InputError
 MAX_FILE_BYTES = 50 * 1024 * 1024
 
 
+def missing_file(source: str) -> str | None:
+    """The sentence saying why ``source`` is not a file to read (a folder, or nothing at
+    that path), or None when it is one."""
+    path = Path(source)
+    if path.is_dir():
+        return f"{source}: is a folder, not a file; give the drawing's file."
+    if not path.is_file():
+        return f"{source}: no such file; check the path."
+    return None
+
+
 def checked_input_file(source: str, holds: str, limit: int | None = None) -> Path:
     """The path of ``source`` after the common checks; ``holds`` completes the empty-file
     hint ("give a GML file that holds {holds}"). ``limit`` overrides MAX_FILE_BYTES."""
     path = Path(source)
     limit = MAX_FILE_BYTES if limit is None else limit
-    if path.is_dir():
-        raise InputError(f"{source}: is a folder, not a file; give the drawing's file.")
-    if not path.is_file():
-        raise InputError(f"{source}: no such file; check the path.")
+    problem = missing_file(source)
+    if problem is not None:
+        raise InputError(problem)
     size = path.stat().st_size
     if size > limit:
         raise InputError(

@@ -18,10 +18,10 @@ Nothing here imports torch: ``inkmotion run --help`` lists the kinds at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import SpecError
+from inkmotion.geometry.input_file import missing_file
 from inkmotion.inputs.sources import is_scheme
 from inkmotion.jobs.params import (
     PluginChoice,
@@ -141,7 +141,6 @@ def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> N
         value = locate(value)  # sample:NAME -> its shipped file; an unknown name is refused
         if info.form == "source" and is_scheme(value):
             continue
-        if Path(value).is_dir():
-            raise SpecError(f"{value}: is a folder, not a file; give the drawing's file.")
-        if not Path(value).is_file():
-            raise SpecError(f"{value}: no such input file; check the path.")
+        problem = missing_file(value)
+        if problem is not None:
+            raise SpecError(problem)
