@@ -99,6 +99,51 @@ def test_a_loop_begins_at_its_top_and_runs_counter_clockwise(tmp_path: Path) -> 
     assert area < 0  # y down: negative shoelace area is counter-clockwise on the page
 
 
+def _order_of(stroke: np.ndarray, *places: tuple[float, float]) -> list[int]:
+    """The index of the stroke's point nearest each place (the order it passes them)."""
+    return [int(np.argmin(np.hypot(*(stroke[:, :2] - np.asarray(p)).T))) for p in places]
+
+
+def test_a_script_words_loops_run_the_way_it_is_written(tmp_path: Path) -> None:
+    # hello in the Hershey script: the l's loops and the o run counter-clockwise, each
+    # between two passes of the word's stroke through its junction; a stroke that runs
+    # straight into an o turned it clockwise (0.74 of the ink in its recorded direction)
+    from inkmotion.benchmarks.pictures import SCANS, direction_and_order, render_scan
+    from inkmotion.geometry.chamfer import densify
+    from inkmotion.kinds.read import read_input
+
+    scan = SCANS[0]  # clean-350-w2
+    truth = read_input("text:hello").fit_to_canvas(scan.size).strokes
+    render_scan(truth, scan, tmp_path / "hello.png")
+    strokes = trace_picture(read_picture(str(tmp_path / "hello.png"))).strokes
+    motion = [np.column_stack((d, k * 1e6 + np.arange(len(d))))
+              for k, d in enumerate(densify(s[:, :2], 1.0) for s in strokes)]
+    share, _ = direction_and_order(truth, motion)
+    assert share > 0.9
+
+
+def test_an_rs_bowl_is_drawn_clockwise_off_its_stem(tmp_path: Path) -> None:
+    # the stem goes straight on up into the bowl: turning the bowl round would take the
+    # stroke through its junction at a right angle instead
+    img = line(page(), [(100, 260), (100, 60), (260, 60), (260, 150), (100, 150),
+                        (260, 260)])
+    (stroke,) = strokes_of(tmp_path, img)
+    top, side, back = _order_of(stroke, (180, 60), (260, 105), (180, 150))
+    assert top < side < back
+
+
+def test_a_tail_hanging_from_its_stem_is_drawn_on_down_the_stem(tmp_path: Path) -> None:
+    # a g's tail: down the stem, round to the left and back up to the stem, where the
+    # stroke ends; its loop hangs from that junction and keeps the way down the stem
+    img = line(page((400, 340)), [(200, 40), (200, 250), (190, 280), (165, 295), (140, 285),
+                                  (135, 260), (150, 235), (175, 215), (199, 203)])
+    strokes = strokes_of(tmp_path, img)
+    stroke = max(strokes, key=len)
+    assert np.allclose(stroke[0, :2], (200, 40), atol=5)  # from the top
+    down, bottom, up = _order_of(stroke, (200, 240), (165, 295), (140, 270))
+    assert down < bottom < up
+
+
 def test_a_cusp_is_drawn_out_to_its_point_and_back(tmp_path: Path) -> None:
     img = line(page(), [(100, 260), (200, 40), (300, 260)], width=8)
     strokes = strokes_of(tmp_path, img)

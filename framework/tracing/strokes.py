@@ -31,7 +31,11 @@ formed, directed and ordered the way a hand draws them.
 4. **Direction and order**: an open stroke begins at the end a writer begins at: the top
    one (strokes are pulled down) unless the stroke is nearly level, then the left one
    (smaller :data:`ACROSS_WEIGHT` · x + y); a loop begins at its top and runs
-   counter-clockwise on the page, as the Latin script's o. Strokes are ordered in lines,
+   counter-clockwise on the page, as the Latin script's o, and so does a loop a stroke
+   runs on its way (an o or an e on a word's line: either way round joins the same two
+   passes through its junction), unless it hangs from its junction (a g's tail) or the
+   stroke runs straight on through the junction only the way it is (an R's bowl).
+   Strokes are ordered in lines,
    top to bottom, each line left to right (by the stroke's left edge); strokes are in one
    line when the middle halves of their heights overlap (:data:`CORE_TRIM`).
 5. **Dots**: ink that no stroke passes through, or only a stroke no longer than the blob
@@ -78,6 +82,13 @@ TURN = 140.0
 #: a stroke starts at its top end (strokes are pulled down) unless it rises by less than
 #: this share of its width (then at its left end)
 ACROSS_WEIGHT = 0.4
+#: a loop a stroke runs clockwise is turned counter-clockwise, where the stroke goes on
+#: past it, only if it then runs through the loop's junction at most this many degrees
+#: less straight than before (:func:`_loops_turned`)
+LOOP_SLACK = 30.0
+#: a loop whose middle lies this share of its height or more below its junction hangs
+#: from it (a g's, an f's tail): it is left the way the stroke runs into it
+HANGS = 0.25
 #: arms meeting at an inner angle below this (degrees) make a cusp, drawn out and back
 CUSP = 60.0
 #: the point of a cusp reaches at most this many ink radii past the fork
@@ -144,6 +155,7 @@ def stroke_graph(mask: np.ndarray) -> StrokeGraph:
     _extend_tips(branches, nodes, mask, radius)
     _cusps(branches, nodes)
     chains, loops = _chain(branches, nodes)
+    chains = [_loops_turned(chain, branches, nodes) for chain in chains]
     strokes = [_stroke_points(chain, branches, nodes, radius) for chain in chains]
     strokes = [s for s in strokes if len(s) >= 2]
     strokes, dots = _dots(mask, radius, strokes)
@@ -541,6 +553,79 @@ def _chain(branches: list[_Branch], nodes: dict[int, _Node]
     return chains, loops
 
 
+def _reversed(chain: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The same chain walked from its other end."""
+    return [(k, 1 - enter) for k, enter in chain[::-1]]
+
+
+def _begins_at_last(first: np.ndarray, last: np.ndarray) -> bool:
+    """Whether a writer begins an open stroke with ends ``first`` and ``last`` (x, y) at
+    ``last``: its top end, or its left one where it is nearly level (step 4)."""
+    return bool(ACROSS_WEIGHT * last[0] + last[1] < ACROSS_WEIGHT * first[0] + first[1])
+
+
+def _loops_turned(chain: list[tuple[int, int]], branches: list[_Branch],
+                  nodes: dict[int, _Node]) -> list[tuple[int, int]]:
+    """An open chain with each loop it runs (branches that leave a junction and come back
+    to it) turned counter-clockwise on the page, as the Latin script's ovals and loops
+    are drawn (an o, an e's eye, an l's loop on a word's line), unless
+
+    - the loop hangs from its junction (:data:`HANGS`: a g's or an f's tail, drawn on
+      down the stem and round, clockwise or not), or
+    - the chain goes on past the loop and runs straighter through the junction the way
+      it is (:data:`LOOP_SLACK`: a stem that goes on up into a bowl and comes out into a
+      leg, an R's, is drawn clockwise).
+
+    Such a loop can be run either way between the chain's two passes through its
+    junction, so the chain's ends and the rest of its path stay as they are. Loops are
+    taken from the chain's start, each the shortest that comes back to where it left."""
+    if _closes(chain, branches):
+        return chain
+    (k0, e0), (k1, e1) = chain[0], chain[-1]
+    # the direction the stroke will be drawn in (:func:`_directed` turns it, later, on its
+    # points: the chain keeps its order, so a chain without a loop to turn traces as ever)
+    backwards = _begins_at_last(branches[k0].points[0 if e0 == 0 else -1],
+                                branches[k1].points[-1 if e1 == 0 else 0])
+    out = list(chain)
+    i = 0
+    while i < len(out):
+        start = branches[out[i][0]].ends[out[i][1]]
+        j = next((j for j in range(i, len(out))
+                  if branches[out[j][0]].ends[1 - out[j][1]] == start), None)
+        if j is None:
+            i += 1
+            continue
+        loop = out[i:j + 1]
+        pts = np.vstack([branches[k].points if enter == 0 else branches[k].points[::-1]
+                         for k, enter in loop])
+        x, y = pts[:, 0], pts[:, 1]
+        clockwise = (float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0) != backwards
+        hangs = float(y.mean()) - nodes[start].centre[1] > HANGS * float(np.ptp(y))
+        if len(pts) > 3 and clockwise and not hangs:
+            turned = out[:i] + _reversed(loop) + out[j + 1:]
+            goes_on = 0 < i and j < len(out) - 1
+            if not goes_on or _straightest_join(turned, i, j, branches, nodes) < \
+                    _straightest_join(out, i, j, branches, nodes) + LOOP_SLACK:
+                out = turned
+        i = j + 1
+    return out
+
+
+def _straightest_join(chain: list[tuple[int, int]], i: int, j: int,
+                      branches: list[_Branch], nodes: dict[int, _Node]) -> float:
+    """The least bend (degrees) of the chain's joins into its branch i and out of its
+    branch j (180 when the loop has neither: it begins or ends the chain both ways)."""
+    least = 180.0
+    for a, b in ((i - 1, i), (j, j + 1)):
+        if a < 0 or b >= len(chain):
+            continue
+        (ka, ea), (kb, eb) = chain[a], chain[b]
+        node = nodes[branches[kb].ends[eb]]
+        least = min(least, _bend(_outward(branches[ka], 1 - ea, node),
+                                 _outward(branches[kb], eb, node)))
+    return least
+
+
 def _stroke_points(chain: list[tuple[int, int]], branches: list[_Branch],
                    nodes: dict[int, _Node], radius: np.ndarray) -> np.ndarray:
     """A chain's points (k, 3): x, y, radius; the junctions it passes through bridged
@@ -709,7 +794,7 @@ def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
             if area > 0:  # clockwise on the page (y down): turn it round
                 body = np.vstack((body[:1], body[:0:-1]))
             s = np.vstack((body, body[:1]))
-        elif ACROSS_WEIGHT * s[-1, 0] + s[-1, 1] < ACROSS_WEIGHT * s[0, 0] + s[0, 1]:
+        elif _begins_at_last(s[0, :2], s[-1, :2]):
             s = s[::-1].copy()
         out.append(s)
     return out
