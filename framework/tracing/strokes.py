@@ -598,8 +598,8 @@ def _loops_turned(chain: list[tuple[int, int]], branches: list[_Branch],
         loop = out[i:j + 1]
         pts = np.vstack([branches[k].points if enter == 0 else branches[k].points[::-1]
                          for k, enter in loop])
-        x, y = pts[:, 0], pts[:, 1]
-        clockwise = (float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0) != backwards
+        clockwise = _clockwise(pts) != backwards
+        y = pts[:, 1]
         hangs = float(y.mean()) - nodes[start].centre[1] > HANGS * float(np.ptp(y))
         if len(pts) > 3 and clockwise and not hangs:
             turned = out[:i] + _reversed(loop) + out[j + 1:]
@@ -780,6 +780,13 @@ def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
     return kept, dots
 
 
+def _clockwise(pts: np.ndarray) -> bool:
+    """Whether the closed polygon ``pts`` (k, 2+) runs clockwise on the page (y down: a
+    positive shoelace sum)."""
+    x, y = pts[:, 0], pts[:, 1]
+    return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+
+
 def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
     """Each stroke begun where a writer begins it (module docstring, step 4)."""
     out = []
@@ -789,9 +796,7 @@ def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
             body = s[:-1]
             top = int(np.argmin(body[:, 1] + 1e-3 * body[:, 0]))
             body = np.roll(body, -top, axis=0)
-            x, y = body[:, 0], body[:, 1]
-            area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-            if area > 0:  # clockwise on the page (y down): turn it round
+            if _clockwise(body):  # turn it round
                 body = np.vstack((body[:1], body[:0:-1]))
             s = np.vstack((body, body[:1]))
         elif _begins_at_last(s[0, :2], s[-1, :2]):
