@@ -35,9 +35,9 @@ formed, directed and ordered the way a hand draws them.
    runs on its way (an o or an e on a word's line: either way round joins the same two
    passes through its junction), unless it hangs from its junction (a g's tail) or the
    stroke runs straight on through the junction only the way it is (an R's bowl).
-   Strokes are ordered in lines,
-   top to bottom, each line left to right (by the stroke's left edge); strokes are in one
-   line when the middle halves of their heights overlap (:data:`CORE_TRIM`).
+   Strokes are ordered in lines, top to bottom, each line left to right (by the stroke's
+   left edge); strokes are in one line when the middle halves of their heights overlap
+   (:data:`CORE_TRIM`).
 5. **Dots**: ink that no stroke passes through, or only a stroke no longer than the blob
    is wide, is a dab, a stroke of two points across the blob, when it is at least as big
    as a dab of the drawing's pen; smaller specks (and any stroke within one) are noise
