@@ -614,7 +614,7 @@ def _loops_turned(chain: list[tuple[int, int]], branches: list[_Branch],
 def _straightest_join(chain: list[tuple[int, int]], i: int, j: int,
                       branches: list[_Branch], nodes: dict[int, _Node]) -> float:
     """The least bend (degrees) of the chain's joins into its branch i and out of its
-    branch j (180 when the loop has neither: it begins or ends the chain both ways)."""
+    branch j, the joins it has of the two (180 for none)."""
     least = 180.0
     for a, b in ((i - 1, i), (j, j + 1)):
         if a < 0 or b >= len(chain):
