@@ -435,6 +435,37 @@ def test_strokes_along_the_pictures_edge_are_kept(tmp_path: Path, shape: str) ->
     assert sum(_length_of(s) for s in strokes) > (480 if shape == "T" else 580)
 
 
+@pytest.mark.parametrize("side", ["left", "top", "right", "bottom"])
+def test_a_stripe_along_the_pictures_edge_is_left_out_and_said(tmp_path: Path,
+                                                                side: str) -> None:
+    """A scan of a page that did not fill the scanner's bed, or a photo cut just past the
+    page's edge: a dark stripe flush with one side is not a stroke. The drawing's
+    strokes are those of the page without it, and a note says what was left out."""
+    img = line(line(page((400, 300)), [(80, 100), (300, 120)]), [(120, 60), (200, 250)])
+    alone = strokes_of(tmp_path, img, "alone.png")
+    cut = {"left": np.s_[:, :7], "top": np.s_[:6, :], "right": np.s_[:, -5:],
+           "bottom": np.s_[-8:, :]}[side]
+    img[cut] = 25
+    picture = read_picture(save(tmp_path, img))
+    assert [n for n in picture.notes if f"{side} edge" in n and "left out" in n], picture.notes
+    strokes = trace_picture(picture).strokes
+    assert len(strokes) == len(alone) == 2
+    for s, t in zip(strokes, alone, strict=True):
+        assert np.abs(s[[0, -1], :2] - t[[0, -1], :2]).max() < 1.5
+
+
+def test_a_hand_drawn_line_on_a_cropped_edge_is_kept(tmp_path: Path) -> None:
+    """A signature's underline on a picture cropped to the ink: it meets the bottom edge
+    only at its lowest points, so it is a stroke, not a stripe along the edge."""
+    xs = np.linspace(2, 397, 80)
+    under = list(zip(xs, 195 + 2.5 * np.sin(xs / 25), strict=True))
+    img = line(line(page((400, 200)), [(60, 40), (120, 160), (200, 60)]), under)
+    picture = read_picture(save(tmp_path, img))
+    assert not picture.notes, picture.notes
+    strokes = trace_picture(picture).strokes
+    assert len(strokes) == 2 and max(_length_of(s) for s in strokes) > 380
+
+
 def test_a_page_on_a_desk_is_traced_without_the_desk(tmp_path: Path) -> None:
     """A photo of the page on a dark desk: the desk round the page is paper in shadow, not
     ink (the paper estimate carries the picture's border on outward)."""

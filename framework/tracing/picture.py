@@ -88,6 +88,9 @@ MAX_WIDTH_SHARE = 0.05
 #: ... though strokes this wide (px) are line art on any page, however small (an icon, a
 #: character of a handwriting set at 105 px, whose crossings merge into wider ink)
 LEAST_WIDEST = 10.0
+#: ink flush with a side of the picture without a break over at least this share of it is
+#: a stripe along the edge (step 4), when it is no thicker than a stroke and alone
+EDGE_RUN_SHARE = 0.6
 
 
 @dataclass
@@ -287,7 +290,11 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     import cv2
 
     ink = ink_map(grey)
-    mask = ink_mask(ink)
+    mask, sides = drop_edge_stripes(ink_mask(ink))
+    if sides:
+        notes.append(f"a stripe flush with the picture's {' and '.join(sides)} "
+                     f"edge{'s' if len(sides) > 1 else ''} (a page's edge or a scanner's "
+                     "shadow) was left out; crop the picture if it is part of the drawing")
     # each ink pixel's distance to the paper, read by the line-art check and the ink level
     depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     _check_line_art(source, ink, mask, depth, inverted and not invert)
@@ -347,6 +354,47 @@ def ink_mask(ink: np.ndarray) -> np.ndarray:
     speck = max(4, int(round(1e-5 * mask.size)))
     mask = remove_small_objects(mask, max_size=speck)
     return remove_small_holes(mask, max_size=speck)
+
+
+def _longest_run(flags: np.ndarray) -> int:
+    """The length of the longest run of True in the 1-D bool ``flags``."""
+    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return int((ends - starts).max()) if starts.size else 0
+
+
+def drop_edge_stripes(mask: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """``mask`` without the stripes along its sides (module docstring, step 4), and the
+    sides they were on ('top', 'bottom', 'left', 'right'). A stripe is a connected piece
+    of ink whose outermost row (or column) is ink without a break over at least
+    :data:`EDGE_RUN_SHARE` of that side, and all of which lies within a stroke's width
+    (:func:`widest_stroke`) of it: a stroke that leaves the edge makes its piece too deep
+    and keeps it."""
+    h, w = mask.shape
+    outer = {"top": mask[0], "bottom": mask[-1], "left": mask[:, 0], "right": mask[:, -1]}
+    long = [side for side, line in outer.items()
+            if _longest_run(line) >= EDGE_RUN_SHARE * line.size]
+    if not long:  # the usual page: one cheap look at its four sides
+        return mask, []
+    from skimage.measure import label
+
+    pieces = label(mask, connectivity=2)
+    band = widest_stroke(mask.shape)
+    depth_of = {"top": lambda r, c: r, "bottom": lambda r, c: h - 1 - r,  # from that side
+                "left": lambda r, c: c, "right": lambda r, c: w - 1 - c}
+    outer_pieces = {"top": pieces[0], "bottom": pieces[-1], "left": pieces[:, 0],
+                    "right": pieces[:, -1]}
+    out, sides = mask.copy(), []
+    for side in long:
+        line = outer_pieces[side]
+        for piece in np.unique(line[line > 0]):
+            if _longest_run(line == piece) < EDGE_RUN_SHARE * line.size:
+                continue
+            inside = pieces == piece
+            if depth_of[side](*np.nonzero(inside)).max() < band:
+                out[inside] = False
+                sides.append(side)
+    return out, sides
 
 
 def ink_level(ink: np.ndarray, depth: np.ndarray) -> float:
