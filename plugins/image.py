@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from inkmotion.images.formats import PICTURE_FORMATS
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
@@ -40,12 +41,12 @@ class SkeletonTracer:
 
 
 class ImageReader:
-    """Reads PNG, JPEG, BMP, TIFF, WebP, AVIF (HEIC with pillow-heif) pictures of line
-    drawings into traces."""
+    """Reads pictures of line drawings (:mod:`inkmotion.images.formats`; HEIC with
+    pillow-heif) into traces."""
 
     name = "image"
-    description = ("Pictures of line drawings (PNG, JPEG, BMP, TIFF, WebP, AVIF): dark ink "
-                   "on light paper, or light on dark (detected), traced by 'skeleton'.")
+    description = (f"Pictures of line drawings ({PICTURE_FORMATS}): dark ink on light "
+                   "paper, or light on dark (detected), traced by 'skeleton'.")
 
     def can_read(self, source: str) -> bool:
         """True for paths with a picture's suffix."""

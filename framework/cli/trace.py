@@ -12,11 +12,12 @@ from rich.console import Console
 
 from inkmotion.cli.errors import fail
 from inkmotion.errors import InkmotionError
+from inkmotion.images.formats import PICTURE_FORMATS
 
 
 def trace_cmd(
-    image: Annotated[str, typer.Argument(help="A picture of a line drawing (PNG, JPEG, BMP, "
-                                              "TIFF, WebP, AVIF) or sample:NAME.")],
+    image: Annotated[str, typer.Argument(help=f"A picture of a line drawing ({PICTURE_FORMATS}; "
+                                              "HEIC with pillow-heif) or sample:NAME.")],
     out: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         "--out", help="Folder to write strokes.svg, strokes.gml, strokes.png and "
                       "extraction.json into.")] = None,

@@ -53,12 +53,10 @@ import numpy as np
 
 from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import checked_input_file
+from inkmotion.images.formats import PICTURE_FORMATS, PICTURE_SUFFIXES
 
-#: file suffixes read as pictures (HEIC/HEIF only with the pillow-heif plugin installed;
-#: without it such a photo is refused in one sentence saying what to do; a PDF, which a
-#: scanner often writes, is refused with how to export its page as a picture)
-SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif", ".pgm", ".ppm",
-            ".avif", ".jp2", ".heic", ".heif", ".pdf")
+#: file suffixes read as pictures (:mod:`inkmotion.images.formats`)
+SUFFIXES = PICTURE_SUFFIXES
 #: the ISO media brands of a HEIF file's 'ftyp' box (an iPhone's photos), which Pillow
 #: reads only through pillow-heif
 HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"mif1", b"msf1")
@@ -155,8 +153,8 @@ def open_picture(file: str | BinaryIO, shown: str) -> Iterator[Any]:
     except InputError:
         raise
     except UnidentifiedImageError:
-        raise InputError(f"{shown}: not a picture this can read (PNG, JPEG, BMP, TIFF, "
-                         "WebP, AVIF); check the file.") from None
+        raise InputError(f"{shown}: not a picture this can read ({PICTURE_FORMATS}); "
+                         "check the file.") from None
     except (OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{shown}: the picture cannot be decoded ({_reason(exc)}); it may be "
                          "truncated or damaged, so export it again.") from None
