@@ -95,7 +95,7 @@ class Objective:
         """One forward pass; ``step`` is the optimiser's (1-based) step, None for an
         evaluation outside the loop (terms with state, the trace term, keep theirs)."""
         layout, t_end, kin, segments = self._motion(batch)
-        rendered = self._draw(segments, batch.widths[layout.segment_path])
+        rendered = self._draw(segments, batch.widths.index_select(0, layout.segment_path))
         terms: dict[str, torch.Tensor] = {}
         image = rendered.new_zeros(())
         for name, fn in self.image_losses.items():
@@ -130,7 +130,7 @@ class Objective:
         if layout.window is None and self._static(batch):
             layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
                                                max_ac=AC_MAX)
-        t_end = times[layout.block_end - 1]  # (P,) the last sample is T_end
+        t_end = times.index_select(0, layout.block_end - 1)  # (P,) the last sample is T_end
         kin, overflow = evaluate_kinematics(batch, times, layout, accelerations=False)
         if overflow is not None:
             self._window_overflow = overflow if self._window_overflow is None \

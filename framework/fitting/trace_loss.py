@@ -425,7 +425,8 @@ class TraceLoss:
     def _around(self, nearest: torch.Tensor, first: torch.Tensor,
                 last: torch.Tensor) -> torch.Tensor:
         """(n, 2·reach + 1): ``nearest`` and its neighbours, clamped to its own range."""
-        lo, hi = first[nearest][:, None], last[nearest][:, None]
+        lo = first.index_select(0, nearest)[:, None]
+        hi = last.index_select(0, nearest)[:, None]
         return torch.minimum(torch.maximum(nearest[:, None] + self._offsets, lo), hi)
 
     @staticmethod
@@ -458,10 +459,12 @@ class TraceLoss:
         ref, w = self.ref, self._offsets.numel()
         c = self._around(chord, *self._ranges)  # (K, w)
         q = ref.points[:, None, :].expand(-1, w, -1).reshape(-1, 2)
-        recall = _point_segment_d2(q, starts[c.reshape(-1)], ends[c.reshape(-1)])
+        c = c.reshape(-1)
+        recall = _point_segment_d2(q, starts.index_select(0, c), ends.index_select(0, c))
         j = self._around(segment, *self._seg_range).reshape(-1)  # (2S·w,)
         f = starts[:, None, :].expand(-1, w, -1).reshape(-1, 2)
-        precision = _point_segment_d2(f, ref.seg_a[j], ref.seg_b[j])
+        precision = _point_segment_d2(f, ref.seg_a.index_select(0, j),
+                                      ref.seg_b.index_select(0, j))
         s2 = self.scale * self.scale
         recall, precision = recall.view(-1, w).amin(1), precision.view(-1, w).amin(1)
         if self.tolerance > 0:  # squared distances beyond the tolerance band

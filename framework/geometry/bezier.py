@@ -25,10 +25,12 @@ def hermite_segments(
     (S = N − P: no segment crosses a pen lift)."""
     a = layout.segment_start  # (S,)
     b = a + 1
-    h = (dt[layout.segment_path] / 3.0)[:, None]  # (S, 1)
+    h = (dt.index_select(0, layout.segment_path) / 3.0)[:, None]  # (S, 1)
     return torch.stack(
-        (positions[a], positions[a] + h * velocities[a], positions[b] - h * velocities[b],
-         positions[b]),
+        (positions.index_select(0, a),
+         positions.index_select(0, a) + h * velocities.index_select(0, a),
+         positions.index_select(0, b) - h * velocities.index_select(0, b),
+         positions.index_select(0, b)),
         dim=1,
     )
 

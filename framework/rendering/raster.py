@@ -142,7 +142,7 @@ def piece_radii(a: torch.Tensor, b: torch.Tensor, radii: torch.Tensor,
     D = 3; else (radii[piece_seg], None), one radius per piece."""
     if a.shape[-1] == 3:
         return a[:, 2].clamp(min=0), b[:, 2].clamp(min=0)
-    return radii[piece_seg], None
+    return radii.index_select(0, piece_seg), None
 
 
 def _reach(r: torch.Tensor, r_end: torch.Tensor | None) -> torch.Tensor:
@@ -191,7 +191,7 @@ def _cubic_points(ctrl: torch.Tensor, seg: torch.Tensor, u: torch.Tensor) -> tor
     u = u[:, None]  # (K, 1)
     v = 1 - u
     basis = torch.cat((v * v * v, 3 * u * v * v, 3 * u * u * v, u * u * u), 1)  # (K, 4)
-    return torch.einsum("pk,pkd->pd", basis, ctrl[seg])
+    return torch.einsum("pk,pkd->pd", basis, ctrl.index_select(0, seg))
 
 
 def flatten(ctrl: torch.Tensor, counts: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor,
@@ -206,15 +206,16 @@ def flatten(ctrl: torch.Tensor, counts: torch.Tensor) -> tuple[torch.Tensor, tor
     npts = counts + (counts > 0)  # (S,) points per segment: n + 1, or 0 when culled
     point_seg = torch.repeat_interleave(seg_ids, npts)  # (P,)
     first = torch.cumsum(npts, 0) - npts  # (S,) index of each segment's first point
-    k = torch.arange(point_seg.shape[0], device=dev) - first[point_seg]  # (P,)
-    u = k.to(ctrl.dtype) / counts[point_seg].to(ctrl.dtype)  # (P,)
+    k = torch.arange(point_seg.shape[0], device=dev) - first.index_select(0, point_seg)  # (P,)
+    u = k.to(ctrl.dtype) / counts.index_select(0, point_seg).to(ctrl.dtype)  # (P,)
     pts = _cubic_points(ctrl, point_seg, u)  # (P, D)
     piece_seg = torch.repeat_interleave(seg_ids, counts)  # (N,)
     # piece j of segment s starts at point first[s] + (j − Σ_{s'<s} counts[s']) = j + (#segments
     # before s that have points); with culled segments that is j + rank of s among kept ones
     kept_rank = torch.cumsum(counts > 0, 0) - 1  # (S,)
-    start = torch.arange(piece_seg.shape[0], device=dev) + kept_rank[piece_seg]  # (N,)
-    return pts[start], pts[start + 1], piece_seg
+    start = (torch.arange(piece_seg.shape[0], device=dev)
+             + kept_rank.index_select(0, piece_seg))  # (N,)
+    return pts.index_select(0, start), pts.index_select(0, start + 1), piece_seg
 
 
 def flatten_static(ctrl: torch.Tensor, counts: torch.Tensor, pieces: int
@@ -302,7 +303,7 @@ class _MaxUnion(torch.autograd.Function):
     @staticmethod
     def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None, None, None]:
         pixel, share = ctx.saved_tensors
-        return grad.reshape(-1)[pixel] / share, None, None, None
+        return grad.reshape(-1).index_select(0, pixel) / share, None, None, None
 
 
 def capsule_coverage(
@@ -366,17 +367,23 @@ def capsule_coverage(
     if sparse:
         with torch.no_grad():
             flat = flat.reshape(-1)
-            top = cov.reshape(-1) == img[flat]
+            top = cov.reshape(-1) == img.index_select(0, flat)
             share = (img == 0).to(dtype).scatter_add(0, flat, top.to(dtype))
             rim = (top & inside.reshape(-1) & (x.reshape(-1) >= 0)
                    & (x.reshape(-1) <= 1)).nonzero().squeeze(1)  # (K,) patch entries
             piece, within = rim // (ky * kx), rim % (ky * kx)
-            pixel = flat[rim]
-        x_rim = _excess(xs[piece, within % kx].to(dtype) + 0.5 - a[piece, 0],
-                        ys[piece, within // kx].to(dtype) + 0.5 - a[piece, 1],
-                        ab[piece, 0], ab[piece, 1], inv_len2[piece], r[piece],
-                        None if dr is None else dr[piece])  # (K,)
-        img = _MaxUnion.apply(x_rim, img, pixel, share[pixel])
+            pixel = flat.index_select(0, rim)
+            x_at = xs.reshape(-1).index_select(0, piece * kx + within % kx).to(dtype)
+            y_at = ys.reshape(-1).index_select(0, piece * ky + within // kx).to(dtype)
+        # index_select, not a[piece, 0]: a third of the cost per gather here; one column at
+        # a time, as before, so the gradients add up in the same order (the same bits)
+        x_rim = _excess(x_at + 0.5 - a[:, 0].index_select(0, piece),
+                        y_at + 0.5 - a[:, 1].index_select(0, piece),
+                        ab[:, 0].index_select(0, piece), ab[:, 1].index_select(0, piece),
+                        inv_len2.index_select(0, piece),
+                        r.index_select(0, piece),
+                        None if dr is None else dr.index_select(0, piece))  # (K,)
+        img = _MaxUnion.apply(x_rim, img, pixel, share.index_select(0, pixel))
     return img.reshape(shape)
 
 

@@ -169,11 +169,11 @@ class PlanBatch:
     def displacements(self, layout: GridLayout | None = None) -> torch.Tensor:
         """(M, D) d_i = p_i − p_{i−1}, within each path."""
         idx = (layout or self.layout()).move_point
-        return self.points[idx] - self.points[idx - 1]
+        return self.points.index_select(0, idx) - self.points.index_select(0, idx - 1)
 
     def start_points(self, layout: GridLayout | None = None) -> torch.Tensor:
         """(P, D) p0 of each path."""
-        return self.points[(layout or self.layout()).start_point]
+        return self.points.index_select(0, (layout or self.layout()).start_point)
 
     def timing(self, layout: GridLayout | None = None) -> tuple[torch.Tensor, torch.Tensor,
                                                                  torch.Tensor]:

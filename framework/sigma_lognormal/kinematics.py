@@ -212,7 +212,7 @@ def evaluate_kinematics(
         valid = idx < hi[:, None]
         idx = torch.where(valid, idx, torch.zeros_like(idx))
 
-    tau = times[idx] - t0[:, None]  # (M, K)
+    tau = times.index_select(0, idx.reshape(-1)).view(idx.shape) - t0[:, None]  # (M, K)
     x, v, a = submovement_terms(tau, d, batch.delta, sigma, mu, accelerations)
     mask = valid[..., None].to(x.dtype)
     flat = idx.reshape(-1)
@@ -225,7 +225,8 @@ def evaluate_kinematics(
     # completed sub-movements: +d_i from the first sample after the window to the block end
     done = torch.zeros(n_total + 1, dim, dtype=x.dtype, device=device)
     done = done.index_add(0, hi, d).index_add(0, layout.move_block_end, -d)
-    pos = pos + torch.cumsum(done, 0)[:n_total] + batch.start_points(layout)[layout.sample_path]
+    pos = pos + torch.cumsum(done, 0)[:n_total] + batch.start_points(layout).index_select(
+        0, layout.sample_path)
     return Kinematics(pos, vel, acc), overflow
 
 
@@ -245,7 +246,7 @@ def uniform_times(batch: PlanBatch, layout: GridLayout) -> tuple[torch.Tensor, t
     T_end."""
     t_end = batch.end_times(layout)  # (P,)
     dt = t_end / (layout.counts - 1).to(t_end.dtype)
-    return layout.sample_step.to(dt.dtype) * dt[layout.sample_path], dt
+    return layout.sample_step.to(dt.dtype) * dt.index_select(0, layout.sample_path), dt
 
 
 def kinematics(plan: MotorPlan, t: torch.Tensor) -> Kinematics:

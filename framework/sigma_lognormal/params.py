@@ -47,11 +47,12 @@ def onsets(
     start = -torch.exp(mu - 3.0 * sigma)
     steps = torch.where(layout.first, start, delta_t * T)  # (M,)
     total = torch.cumsum(steps, dim=0)
-    return total - (total - steps)[layout.move_first]
+    return total - (total - steps).index_select(0, layout.move_first)
 
 
 def end_times(t0: torch.Tensor, sigma: torch.Tensor, mu: torch.Tensor,
               layout: GridLayout) -> torch.Tensor:
     """T_end per path (P,): t0_m + e^{μ_m + 3σ_m} of each path's last sub-movement."""
     last = layout.last_move  # (P,)
-    return t0[last] + torch.exp(mu[last] + 3.0 * sigma[last])
+    return t0.index_select(0, last) + torch.exp(mu.index_select(0, last)
+                                               + 3.0 * sigma.index_select(0, last))
