@@ -466,6 +466,56 @@ def test_a_hand_drawn_line_on_a_cropped_edge_is_kept(tmp_path: Path) -> None:
     assert len(strokes) == 2 and max(_length_of(s) for s in strokes) > 380
 
 
+def ruled(img: np.ndarray, spacing: int, down: bool = False, tilt: float = 1.0,
+          shade: float = 0.3, width: int = 2) -> np.ndarray:
+    """``img`` on ruled paper: lines ``spacing`` px apart across it (and down it, squared
+    paper, with ``down``), leaning ``tilt`` degrees, each darkening the paper by
+    ``shade`` (printed under the ink: the darkness multiplies)."""
+    h, w = img.shape
+    lines = np.zeros((h, w), np.uint8)
+    lean = math.tan(math.radians(tilt))
+    for y in range(-h, 2 * h, spacing):
+        cv2.line(lines, (0, y), (w - 1, int(y + lean * w)), 255, width, cv2.LINE_AA)
+    if down:
+        for x in range(-w, 2 * w, spacing):
+            cv2.line(lines, (x, 0), (int(x - lean * h), h - 1), 255, width, cv2.LINE_AA)
+    return (img * (1.0 - shade * lines / 255.0)).astype(np.uint8)
+
+
+@pytest.mark.parametrize("paper", ["lined", "squared", "lined, faint"])
+def test_the_lines_of_ruled_paper_are_left_out_and_said(tmp_path: Path, paper: str) -> None:
+    """A pencil sketch on a notebook's ruled or squared paper, photographed a little
+    askew: the paper's printed lines are no strokes (not even where the drawing crosses
+    them or runs along one), and a note says they were left out. The strokes are those
+    of the same sketch on plain paper."""
+    pts = [[(90, 80), (300, 110), (520, 90)], [(150, 40), (170, 330)], [(420, 60), (430, 340)],
+           [(80, 250), (540, 300)]]
+    img = page((620, 400))
+    for p in pts:
+        img = line(img, p, width=5, ink=120)  # pencil: grey, not black
+    alone = strokes_of(tmp_path, img, "alone.png")
+    shade = 0.15 if "faint" in paper else 0.3  # lighter than the ink's threshold
+    img = ruled(img, 28, down=paper == "squared", shade=shade)
+    picture = read_picture(save(tmp_path, img, params=[cv2.IMWRITE_JPEG_QUALITY, 80],
+                                name="p.jpg"))
+    assert [n for n in picture.notes if "ruled lines" in n], picture.notes
+    strokes = trace_picture(picture).strokes
+    assert len(strokes) == len(alone) == 4, [s[[0, -1], :2].round().tolist() for s in strokes]
+    for s, t in zip(strokes, alone, strict=True):
+        assert np.abs(s[[0, -1], :2] - t[[0, -1], :2]).max() < 4
+
+
+def test_strokes_standing_evenly_apart_are_no_ruling(tmp_path: Path) -> None:
+    """A fence of upright strokes evenly spaced, as a word's stems may stand, is drawn:
+    they do not run from edge to edge of the picture as a ruling's lines do."""
+    img = page((500, 300))
+    for x in range(80, 440, 60):
+        img = line(img, [(x, 40), (x + 3, 250)], width=4)
+    picture = read_picture(save(tmp_path, img))
+    assert not picture.notes, picture.notes
+    assert len(trace_picture(picture).strokes) == 6
+
+
 def test_a_page_on_a_desk_is_traced_without_the_desk(tmp_path: Path) -> None:
     """A photo of the page on a dark desk: the desk round the page is paper in shadow, not
     ink (the paper estimate carries the picture's border on outward)."""

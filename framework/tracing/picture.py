@@ -27,7 +27,12 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
 4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), burrs and notches of JPEG noise evened out (:func:`_tidy`,
    which keeps a line one pixel wide whole), small specks removed and pin-holes filled
-   (:mod:`skimage.morphology`).
+   (:mod:`skimage.morphology`). The printed lines of ruled or squared paper are taken
+   out (:mod:`inkmotion.tracing.ruling`), and so is a stripe flush with one side of the
+   picture along most of it, no thicker than a stroke and touching no other ink
+   (:func:`drop_edge_stripes`): the edge of the page or a scanner's shadow. Both are
+   said in the notes. A stroke that runs along the edge and leaves it (a T's bar cropped
+   to the ink) is kept.
 5. **Ink level**: how dark the ink itself is (no ink is black: a marker on paper reads
    about 0.85), the median darkness of the mask's solid core, the pixels at least
    :data:`SOLID_DEPTH` px inside it (out of a scan's blur); 1 when the strokes are too thin
@@ -54,6 +59,7 @@ import numpy as np
 from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import checked_input_file
 from inkmotion.images.formats import PICTURE_FORMATS, PICTURE_SUFFIXES
+from inkmotion.tracing.ruling import drop_ruling
 
 #: file suffixes read as pictures (:mod:`inkmotion.images.formats`)
 SUFFIXES = PICTURE_SUFFIXES
@@ -288,14 +294,18 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     import cv2
 
     ink = ink_map(grey)
-    mask, sides = drop_edge_stripes(ink_mask(ink))
+    level = ink_threshold(ink)
+    mask, ruling, ruled = drop_ruling(ink_mask(ink, level), ink, level)
+    if ruled:
+        notes.append(f"the paper's ruled lines ({', '.join(ruled)}) were left out")
+    mask, sides = drop_edge_stripes(mask)
     if sides:
         notes.append(f"a stripe flush with the picture's {' and '.join(sides)} "
                      f"edge{'s' if len(sides) > 1 else ''} (a page's edge or a scanner's "
                      "shadow) was left out; crop the picture if it is part of the drawing")
     # each ink pixel's distance to the paper, read by the line-art check and the ink level
     depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    _check_line_art(source, ink, mask, depth, inverted and not invert)
+    _check_line_art(source, ink, mask, depth, inverted and not invert, ruling)
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth))
 
 
@@ -337,17 +347,26 @@ def ink_map(grey: np.ndarray) -> np.ndarray:
     return np.clip(1.0 - grey / np.maximum(paper, 1e-3), 0.0, 1.0).astype(np.float32)
 
 
-def ink_mask(ink: np.ndarray) -> np.ndarray:
-    """The ink (H, W) bool of a darkness map (module docstring, step 4)."""
+def ink_threshold(ink: np.ndarray) -> float | None:
+    """The darkness from which on a pixel is ink (module docstring, step 4): Otsu's
+    threshold between faint paper and ink, never above half the darkest ink (all ink
+    alike), never below :data:`MIN_CONTRAST`; None on a page with no ink to tell."""
     from skimage.filters import threshold_otsu
-    from skimage.morphology import remove_small_holes, remove_small_objects
 
     dark = ink[ink > MIN_CONTRAST / 2]
     if dark.size <= 16:
+        return None
+    return max(MIN_CONTRAST, min(float(threshold_otsu(dark)),
+                                 0.5 * float(np.percentile(dark, 99))))
+
+
+def ink_mask(ink: np.ndarray, level: float | None) -> np.ndarray:
+    """The ink (H, W) bool of a darkness map above ``level`` (:func:`ink_threshold`),
+    tidied (module docstring, step 4)."""
+    from skimage.morphology import remove_small_holes, remove_small_objects
+
+    if level is None:
         return np.zeros(ink.shape, bool)
-    # Otsu between faint paper and ink, never above half the darkest ink (all ink alike)
-    level = max(MIN_CONTRAST, min(float(threshold_otsu(dark)),
-                                  0.5 * float(np.percentile(dark, 99))))
     mask = _tidy((ink > level).astype(np.uint8))
     speck = max(4, int(round(1e-5 * mask.size)))
     mask = remove_small_objects(mask, max_size=speck)
@@ -419,11 +438,11 @@ def _tidy(raw: np.ndarray) -> np.ndarray:
 
 
 def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.ndarray,
-                    found_light: bool = False) -> None:
+                    found_light: bool = False, ruling: np.ndarray | None = None) -> None:
     """Refuse a blank page, a page of mostly ink, and a picture that is not line art
     (``depth``: the mask's distance transform); ``found_light``: the page was read as
     light ink on its own (then a blank page says so, and what to do if the ink is
-    dark)."""
+    dark); ``ruling``: the bands of the paper's ruled lines, no half-tones."""
     import cv2
 
     share = float(mask.mean())
@@ -439,7 +458,8 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
                          "drawing; crop it to the drawing, or pass --invert if the paper is "
                          "the dark part.")
     calm = cv2.GaussianBlur(ink, (0, 0), DENOISE)  # grain is no half-tone
-    mid = float(((calm > MIN_CONTRAST) & ~mask).mean())  # tones between paper and ink
+    mid = calm > MIN_CONTRAST  # tones between paper and ink, the paper's ruled lines aside
+    mid = float((mid & ~mask & (True if ruling is None else ~ruling)).mean())
     if mid > max(0.05, 2.0 * share):
         raise InputError(f"{source}: {100 * mid:.0f} % of the page is in half-tones, not "
                          "a line drawing (a photo is drawn by the 'abstract' kind); use a "
