@@ -21,7 +21,9 @@ Each ruled line is taken out of the mask over its band (its thickness measured a
 plus a pixel each side), except where the drawing's ink crosses it: a band pixel stays
 ink when the drawing's ink over the line would be ink without it, or when the drawing's
 ink lies just beyond the band on both sides of it (a stroke across the line, as faint as
-the line). Crumbs of a line left beside a stroke go. Where a stroke runs along a ruled
+the line). What is kept in a band must run on across it, further than the line is
+thick (a vertical opening): a piece of a line beside a stroke, darkened by its blur,
+does not, and would grow a spur. Crumbs of a line left apart go. Where a stroke runs along a ruled
 line as faint as the line, it is lost there.
 """
 
@@ -235,9 +237,12 @@ def _without_lines(mask: np.ndarray, ink: np.ndarray, in_band: np.ndarray,
     """``mask`` with the bands of ``lines`` (along its rows, ``thick`` px thick) taken out
     but where the drawing crosses them (module docstring); the bands are marked in
     ``in_band`` (written in place), ``least`` is the mask's threshold of darkness."""
+    import cv2
+
     h, w = mask.shape
     out = mask.copy()
     half = int(thick) // 2 + 1
+    mine = np.zeros_like(mask)  # these lines' bands
     bands = []
     for slope, offset, first, last in lines:
         xs = np.arange(max(first - w // 50, 0), min(last + w // 50, w - 1) + 1)
@@ -245,7 +250,7 @@ def _without_lines(mask: np.ndarray, ink: np.ndarray, in_band: np.ndarray,
         rows = centre[None, :] + np.arange(-half, half + 1)[:, None]  # (2·half + 1, n)
         ok = (rows >= 0) & (rows < h)
         rows = np.clip(rows, 0, h - 1)
-        in_band[rows[ok], np.broadcast_to(xs, rows.shape)[ok]] = True
+        mine[rows[ok], np.broadcast_to(xs, rows.shape)[ok]] = True
         above, below = np.clip(centre - half - 1, 0, h - 1), np.clip(centre + half + 1, 0, h - 1)
         crossed = mask[above, xs] & mask[below, xs]  # a stroke on both sides of the band
         bands.append((xs, rows, ok, crossed))
@@ -264,6 +269,13 @@ def _without_lines(mask: np.ndarray, ink: np.ndarray, in_band: np.ndarray,
         drawn = (own >= least) | ((seen >= least) & (seen >= line + DARKER))
         keep = mask[rows, xs[None, :]] & (crossed[None, :] | drawn)
         out[rows[ok], np.broadcast_to(xs, rows.shape)[ok]] = keep[ok]
+    # ink kept in a band belongs to a stroke that crosses it, which runs on across the
+    # band: what reaches no further than the band's own height (a line's piece beside a
+    # stroke, darkened by its blur) is a burr the skeleton would grow a spur from
+    across = cv2.morphologyEx(out.astype(np.uint8), cv2.MORPH_OPEN,
+                              np.ones((int(thick) + 2, 1), np.uint8)).astype(bool)
+    out = np.where(mine, out & across, out)
+    in_band |= mine
     return _without_crumbs(out, in_band, half)
 
 
