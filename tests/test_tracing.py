@@ -505,6 +505,30 @@ def test_the_lines_of_ruled_paper_are_left_out_and_said(tmp_path: Path, paper: s
         assert np.abs(s[[0, -1], :2] - t[[0, -1], :2]).max() < 4
 
 
+@pytest.mark.parametrize("paper", ["lined-1000-w8", "squared-1000-w8"])
+def test_the_benchmarks_ruled_papers_trace_as_the_plain_one(tmp_path: Path,
+                                                             paper: str) -> None:
+    """The picture benchmark's pencil sketch of a word on ruled and squared paper (its
+    lines leaning 1°, JPEG 70) traces within a stroke of the same sketch on plain paper,
+    as close to the word, with the ruling said."""
+    from inkmotion.benchmarks.pictures import PAPERS, render_scan
+    from inkmotion.geometry.chamfer import chamfer
+    from inkmotion.kinds.read import read_input
+
+    scans = {s.name: s for s in PAPERS}
+    truth = read_input("text:hello").fit_to_canvas(1000).strokes
+    found = {}
+    for name in ("pencil-1000-w8", paper):
+        render_scan(truth, scans[name], tmp_path / f"{name}.jpg")
+        picture = read_picture(str(tmp_path / f"{name}.jpg"))
+        strokes = trace_picture(picture).strokes
+        found[name] = (len(strokes), chamfer(truth, [s[:, :2] for s in strokes])[0],
+                       picture.notes)
+    plain, ruled_ = found["pencil-1000-w8"], found[paper]
+    assert not plain[2] and [n for n in ruled_[2] if "ruled lines" in n], found
+    assert abs(ruled_[0] - plain[0]) <= 1 and ruled_[1] < plain[1] + 0.3, found
+
+
 def test_strokes_standing_evenly_apart_are_no_ruling(tmp_path: Path) -> None:
     """A fence of upright strokes evenly spaced, as a word's stems may stand, is drawn:
     they do not run from edge to edge of the picture as a ruling's lines do."""

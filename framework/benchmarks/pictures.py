@@ -2,8 +2,10 @@
 see them, fitted from the picture alone, and scored against the recording.
 
 ``python -m inkmotion.benchmarks.pictures OUT SOURCE... [--steps N]`` renders each source
-at every :data:`SCANS` setting, runs ``inkmotion run fit`` on the picture (a separate
-process, as a user would) and prints a table; ``OUT/pictures.json`` holds every figure.
+at every :data:`SCANS` setting (``--scan NAME`` for some, or for the pencil sketches on
+plain, ruled and squared paper of :data:`PAPERS`), runs ``inkmotion run fit`` on the
+picture (a separate process, as a user would) and prints a table; ``OUT/pictures.json``
+holds every figure.
 
 Scores (fitted motion against the true trace, both on the fit's canvas):
 
@@ -47,6 +49,10 @@ class Scan:
     paper: float = 1.0  # paper grey
     gradient: float = 0.0  # light falling off across the page (share of the paper grey)
     varying: bool = False  # fit with --varying-width
+    ink: float = 0.85  # how dark the ink is (a pencil's is lighter)
+    ruling: float = 0.0  # ruled paper: its lines' spacing, a share of the size (0: plain)
+    squared: bool = False  # ruled both ways (graph paper)
+    tilt: float = 0.0  # degrees the ruling leans (a page photographed a little askew)
 
 
 SCANS = (
@@ -57,6 +63,17 @@ SCANS = (
          gradient=0.3),
     Scan("photo-700-w5", size=700, brush=5.0, blur=1.0, noise=0.05, jpeg=70, paper=0.8,
          gradient=0.4),
+)
+#: pencil sketches on plain, ruled and squared paper (``--scan`` names them; not in the
+#: default set): the ruling's lines 2 px wide every 3.5 % of the size, leaning 1°,
+#: printed a third as dark as the paper (:mod:`inkmotion.tracing.ruling`)
+PAPERS = (
+    Scan("pencil-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.92,
+         ink=0.55),
+    Scan("lined-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.92,
+         ink=0.55, ruling=0.035, tilt=1.0),
+    Scan("squared-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.92,
+         ink=0.55, ruling=0.035, squared=True, tilt=1.0),
 )
 
 
@@ -77,7 +94,9 @@ def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0
         cover = cv2.GaussianBlur(cover, (0, 0), scan.blur)
     light = scan.paper * (1.0 - scan.gradient * np.linspace(0, 1, w)[None, :]
                           * np.linspace(0.3, 1, h)[:, None])
-    grey = light * (1.0 - 0.85 * cover)
+    grey = light * (1.0 - scan.ink * cover)
+    if scan.ruling:
+        grey = grey * (1.0 - 0.3 * _ruling(h, w, scan))
     rng = np.random.default_rng(seed)
     grey = grey + rng.normal(0.0, scan.noise, grey.shape) if scan.noise > 0 else grey
     img = np.clip(grey * 255, 0, 255).astype(np.uint8)
@@ -85,6 +104,21 @@ def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0
         cv2.imwrite(str(path), img, [cv2.IMWRITE_JPEG_QUALITY, scan.jpeg])
     else:
         cv2.imwrite(str(path), img)
+
+
+def _ruling(h: int, w: int, scan: Scan) -> np.ndarray:
+    """The ruled lines of ``scan``'s paper (H, W) in [0, 1]."""
+    import cv2
+
+    lines = np.zeros((h, w), np.uint8)
+    gap = max(4, int(round(scan.ruling * scan.size)))
+    lean = float(np.tan(np.radians(scan.tilt)))
+    for y in range(-h, 2 * h, gap):
+        cv2.line(lines, (0, y), (w - 1, int(y + lean * w)), 255, 2, cv2.LINE_AA)
+    if scan.squared:
+        for x in range(-w, 2 * w, gap):
+            cv2.line(lines, (x, 0), (int(x - lean * h), h - 1), 255, 2, cv2.LINE_AA)
+    return lines.astype(np.float32) / 255.0
 
 
 def _samples(csv: Path) -> list[np.ndarray]:
@@ -194,10 +228,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("out", type=Path)
     parser.add_argument("sources", nargs="+")
     parser.add_argument("--steps", type=int, default=None)
-    parser.add_argument("--scan", action="append", help="only these settings (names)")
+    parser.add_argument("--scan", action="append",
+                        help="only these settings (names; also the pencil and ruled-paper "
+                             "ones, which the default set leaves out)")
     parser.add_argument("--varying", action="store_true", help="fit --varying-width too")
     args = parser.parse_args(argv)
     scans = [s for s in SCANS if not args.scan or s.name in args.scan]
+    scans += [s for s in PAPERS if args.scan and s.name in args.scan]
     if args.varying:
         scans = [Scan(**{**asdict(s), "name": s.name + "-vw", "varying": True}) for s in scans]
     rows = []
