@@ -144,7 +144,10 @@ def _ruled_lines(faint: np.ndarray) -> tuple[list[tuple[float, float, int, int]]
     reach = abs(lean) * w / 2  # how far a leaning line's ends are from its middle's row
     for m in np.arange(phase - unit * ((phase + reach) // unit + 1), h + reach, unit):
         places += first - 0.5 * unit <= m <= last + 0.5 * unit
-        found = _printed_line(faint, float(m), lean, usual)
+        # a pixel either way: the spacing is fitted, but a line the picture's edge cuts
+        # short shows only a corner's worth of itself to find it by
+        found = next((f for f in (_printed_line(faint, float(m + d), lean, usual)
+                                  for d in (0.0, -1.0, 1.0)) if f is not None), None)
         if found is not None:
             lines.append(found[:4])
     # a ruling fills the places between its first line and its last, which upright
