@@ -529,6 +529,25 @@ def test_the_benchmarks_ruled_papers_trace_as_the_plain_one(tmp_path: Path,
     assert abs(ruled_[0] - plain[0]) <= 1 and ruled_[1] < plain[1] + 0.3, found
 
 
+def test_a_ruled_pages_margin_line_is_left_out(tmp_path: Path) -> None:
+    """A notebook's page: blue-grey ruled lines and a red margin line down it, as dark as
+    the ink in grey; a stroke crosses the margin. The margin is no stroke either."""
+    pts = [[(20, 90), (300, 110), (520, 90)], [(150, 40), (170, 330)]]
+    img = page((620, 400))
+    for p in pts:
+        img = line(img, p, width=5)
+    alone = strokes_of(tmp_path, img, "alone.png")
+    colour = cv2.cvtColor(ruled(img, 28), cv2.COLOR_GRAY2BGR).astype(np.float32)
+    margin = np.zeros(img.shape, np.float32)
+    cv2.line(margin, (60, 0), (62, 399), 1.0, 3, cv2.LINE_AA)
+    red = np.array([0.3, 0.3, 0.95], np.float32)  # BGR: what a red line lets through
+    colour *= 1.0 - margin[..., None] * (1.0 - red)
+    picture = read_picture(save(tmp_path, colour.astype(np.uint8)))
+    assert [n for n in picture.notes if "1 margin line down" in n], picture.notes
+    strokes = trace_picture(picture).strokes
+    assert len(strokes) == len(alone) == 2, [s[[0, -1], :2].round().tolist() for s in strokes]
+
+
 def test_strokes_standing_evenly_apart_are_no_ruling(tmp_path: Path) -> None:
     """A fence of upright strokes evenly spaced, as a word's stems may stand, is drawn:
     they do not run from edge to edge of the picture as a ruling's lines do."""

@@ -15,7 +15,10 @@ most (:data:`FILLED`) of the places its spacing gives between the first and the 
 word's upright stems may stand evenly apart, but not at every place of a spacing). Lines
 within :data:`TILT` of the picture's rows are found by a Hough transform limited to those
 angles (:func:`cv2.HoughLines`), then every place the spacing gives is looked at; the
-columns are the transposed picture's rows (a grid is both).
+columns are the transposed picture's rows (a grid is both). On a page ruled one way, up
+to :data:`MARGINS` lines printed the other way (edge to edge, as thick all along) are
+its margin, taken out as well. Each way is looked at without the lines already taken
+out (a column crosses every line of a ruling across it).
 
 Each ruled line is taken out of the mask over its band (its thickness measured across it,
 plus a pixel each side), except where the drawing's ink crosses it: a band pixel stays
@@ -30,6 +33,7 @@ line as faint as the line, it is lost there.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -47,6 +51,8 @@ VISIBLE_KNOWN = 0.1
 UNIFORM = 0.5
 #: ... or, at a place of a ruling found, as thick as its lines along this share
 ALONG = 0.25
+#: a page ruled one way has at most this many margin lines the other way
+MARGINS = 3
 #: a ruling has a line at this share of the places its spacing gives, at least
 FILLED = 0.8
 #: where the spacing puts a line, ink along this share of the picture shows one (a faint
@@ -78,55 +84,85 @@ def drop_ruling(mask: np.ndarray, ink: np.ndarray, level: float | None
         return mask, None, []
     faint = (ink >= max(FAINT * level, LEAST_FAINT)) | mask
     bands = np.zeros_like(mask)
-    found: list[str] = []
-    out = mask
-    for turned in (False, True):  # rows, then columns (the transposed picture's rows)
-        lines, thick = _ruled_lines(faint.T if turned else faint)
+    out, said, ruled = mask, [], set()
+
+    def take(turned: bool, find: Callable, what: str) -> None:
+        nonlocal out
+        # the lines taken out so far are no ink to look for the others in (a column
+        # crosses every line of a ruling across: it would seem to run edge to edge)
+        left = faint & ~(bands & ~out)
+        lines, thick = find(left.T if turned else left)
         if not lines:
-            continue
+            return
         views = (out.T, ink.T, bands.T) if turned else (out, ink, bands)
         kept = _without_lines(*views, lines, thick, level)
         out = kept.T if turned else kept
-        found.append(f"{len(lines)} ruled lines {'down' if turned else 'across'}")
-    if not found:
+        ruled.add(turned)
+        plural = "s" * (len(lines) > 1 and what == "margin line")
+        said.append(f"{len(lines)} {what}{plural} {'down' if turned else 'across'}")
+
+    for turned in (False, True):  # rows, then columns (the transposed picture's rows)
+        take(turned, _ruled_lines, "ruled lines")
+    if not said:
         return mask, None, []
-    return np.ascontiguousarray(out), bands, found
+    for turned in {False, True} - ruled:  # a ruled page's margin runs across its ruling
+        take(turned, _margin_lines, "margin line")
+    return np.ascontiguousarray(out), bands, said
 
 
-def _ruled_lines(faint: np.ndarray) -> tuple[list[tuple[float, float, int, int]], float]:
-    """The ruled lines running along the rows of ``faint`` (the faint ink, bool): (slope,
-    offset at x = 0, first column, last column) each, top to bottom, and their thickness
-    (px); no lines unless they make a ruling. The straight lines within :data:`TILT` of
-    the rows that hold ink over :data:`SEEN` of the width are found by a Hough transform
-    limited to those angles."""
+def _margin_lines(faint: np.ndarray) -> tuple[list[tuple[float, float, int, int]], float]:
+    """At most :data:`MARGINS` printed lines along the rows of ``faint`` (edge to edge, as
+    thick all along: :func:`_printed_line`), the margin of a page ruled the other way,
+    and their thickness; no lines where there are more (a drawing's, or a ruling's that
+    :func:`_ruled_lines` did not take)."""
+    printed = [p for p in (_printed_line(faint, m, lean) for m, lean in _long_lines(faint))
+               if p is not None]
+    if not printed or len(printed) > MARGINS:
+        return [], 0.0
+    return [p[:4] for p in printed], float(np.median([p[4] for p in printed]))
+
+
+def _long_lines(faint: np.ndarray) -> list[tuple[float, float]]:
+    """The straight lines within :data:`TILT` of the rows of ``faint`` that hold ink over
+    :data:`SEEN` of its width, found by a Hough transform limited to those angles: (row
+    where each crosses the middle column, its slope), top to bottom, one per line (a
+    line thicker than a pixel is found at several rows side by side)."""
     import cv2
 
     h, w = faint.shape
     seen = int(SEEN * w)
     if seen < 8:
-        return [], 0.0
+        return []
     tilt = math.radians(TILT)
     found = cv2.HoughLines(faint.astype(np.uint8), 1, math.pi / 720, seen,
                            min_theta=math.pi / 2 - tilt, max_theta=math.pi / 2 + tilt)
-    if found is None or len(found) < LEAST_LINES:
-        return [], 0.0
+    if found is None:
+        return []
     rho, theta = found.reshape(-1, 2).T.astype(float)
     slope = -np.cos(theta) / np.sin(theta)  # y = offset + slope·x
-    offset = rho / np.sin(theta)
-    middle = offset + slope * (w / 2)  # where each crosses the picture's middle column
-    order = np.argsort(middle)
+    middle = rho / np.sin(theta) + slope * (w / 2)
     groups: list[list[int]] = []
-    for i in order:  # a line thicker than a pixel is found at several offsets side by side
+    for i in np.argsort(middle):
         if groups and middle[i] - middle[groups[-1][-1]] <= 3.0:
             groups[-1].append(int(i))
         else:
             groups.append([int(i)])
-    lean = float(np.median(slope))
+    return [(float(np.median(middle[g])), float(np.median(slope[g]))) for g in groups]
+
+
+def _ruled_lines(faint: np.ndarray) -> tuple[list[tuple[float, float, int, int]], float]:
+    """The ruled lines running along the rows of ``faint`` (the faint ink, bool): (slope,
+    offset at x = 0, first column, last column) each, top to bottom, and their thickness
+    (px); no lines unless the long straight lines (:func:`_long_lines`) make a ruling."""
+    h, w = faint.shape
+    long = _long_lines(faint)
+    if len(long) < LEAST_LINES:
+        return [], 0.0
+    lean = float(np.median([slope for _, slope in long]))
     # lines printed across the picture, not the rows through a drawing's straight strokes;
     # a ruling's lines are alike, so one far thicker than most is a drawn stroke
     printed = []
-    for g in groups:
-        m = float(np.median(middle[g]))
+    for m, _ in long:
         found = _printed_line(faint, m, lean)
         if found is not None:
             printed.append((m, found))
