@@ -20,14 +20,14 @@ to :data:`MARGINS` lines printed the other way (edge to edge, as thick all along
 its margin, taken out as well. Each way is looked at without the lines already taken
 out (a column crosses every line of a ruling across it).
 
-Each ruled line is taken out of the mask over its band (its thickness measured across it,
-plus a pixel each side), except where the drawing's ink crosses it: a band pixel stays
-ink when the drawing's ink over the line would be ink without it, or when the drawing's
-ink lies just beyond the band on both sides of it (a stroke across the line, as faint as
-the line). What is kept in a band must run on across it, further than the line is
-thick (a vertical opening): a piece of a line beside a stroke, darkened by its blur,
-does not, and would grow a spur. Crumbs of a line left apart go. Where a stroke runs along a ruled
-line as faint as the line, it is lost there.
+Each ruled line is taken out of the mask over its band (the ruling's thickness, measured
+across its lines, plus a pixel each side), except where the drawing's ink crosses it: a
+band pixel stays ink when the drawing's ink over the line would be ink without it, or
+when the drawing's ink lies just beyond the band on both sides of it (a stroke across
+the line, as faint as the line). What is kept in a band must run on across it, further
+than the line is thick (a vertical opening): a piece of a line beside a stroke,
+darkened by its blur, does not, and would grow a spur. Crumbs of a line left apart go.
+Where a stroke runs along a ruled line as faint as the line, it is lost there.
 """
 
 from __future__ import annotations
@@ -76,10 +76,11 @@ def drop_ruling(mask: np.ndarray, ink: np.ndarray, level: float | None
                 ) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
     """``mask`` (H, W) bool without the ruled lines of its paper; the ruled lines' bands
     (H, W) bool, None without a ruling; and what was taken out ('N ruled lines across',
-    'N ruled lines down'). ``ink`` (H, W) is the darkness the mask was made from, and
-    ``level`` its threshold (:func:`~inkmotion.tracing.picture.ink_threshold`). The
-    lines are looked for in the faint ink as well as the mask's: a ruling lighter than
-    the mask's threshold still darkens the strokes it crosses (module docstring)."""
+    'N ruled lines down', '1 margin line down'). ``ink`` (H, W) is the darkness the
+    mask was made from, and ``level`` its threshold
+    (:func:`~inkmotion.tracing.picture.ink_threshold`). The lines are looked for in the
+    faint ink as well as the mask's: a ruling lighter than the mask's threshold still
+    darkens the strokes it crosses (module docstring)."""
     if level is None or not mask.any():
         return mask, None, []
     faint = (ink >= max(FAINT * level, LEAST_FAINT)) | mask
