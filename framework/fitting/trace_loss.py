@@ -239,12 +239,14 @@ def _group_ranges(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _nearest(d2: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor,
              n_rows: int) -> torch.Tensor:
     """For each row, the col of its pair with the smallest ``d2`` (n_rows,) long; every row
-    has a pair. On the device, no host read."""
+    has a pair. On the device, no host read. A row whose distances are all NaN (a motion
+    gone non-finite) gets col 0, a valid index: the loss is then NaN, which the optimiser
+    reports in one sentence."""
     best = d2.new_full((n_rows,), FAR).scatter_reduce(0, rows, d2, "amin",
                                                        include_self=False)
     hit = torch.where(d2 <= best[rows], cols, -1)
     return torch.full((n_rows,), -1, dtype=torch.long, device=d2.device).scatter_reduce(
-        0, rows, hit, "amax", include_self=True)
+        0, rows, hit, "amax", include_self=True).clamp_(min=0)
 
 
 class TraceLoss:
