@@ -103,8 +103,8 @@ def test_a_bad_upload_is_refused_in_one_sentence(name, data, words):
 def test_every_picture_the_tracer_reads_can_be_uploaded(name, fmt):
     from PIL import Image
 
+    from inkmotion.images.formats import PICTURE_SUFFIXES as SUFFIXES
     from inkmotion.studio.uploads import KINDS
-    from inkmotion.tracing.picture import SUFFIXES
 
     assert set(SUFFIXES) <= set(KINDS)  # one list: the tracer's
     buffer = io.BytesIO()

@@ -471,15 +471,10 @@ def ruled(img: np.ndarray, spacing: int, down: bool = False, tilt: float = 1.0,
     """``img`` on ruled paper: lines ``spacing`` px apart across it (and down it, squared
     paper, with ``down``), leaning ``tilt`` degrees, each darkening the paper by
     ``shade`` (printed under the ink: the darkness multiplies)."""
-    h, w = img.shape
-    lines = np.zeros((h, w), np.uint8)
-    lean = math.tan(math.radians(tilt))
-    for y in range(-h, 2 * h, spacing):
-        cv2.line(lines, (0, y), (w - 1, int(y + lean * w)), 255, width, cv2.LINE_AA)
-    if down:
-        for x in range(-w, 2 * w, spacing):
-            cv2.line(lines, (x, 0), (int(x - lean * h), h - 1), 255, width, cv2.LINE_AA)
-    return (img * (1.0 - shade * lines / 255.0)).astype(np.uint8)
+    from inkmotion.benchmarks.pictures import ruled_lines
+
+    lines = ruled_lines(*img.shape, spacing, tilt, down, width)
+    return (img * (1.0 - shade * lines)).astype(np.uint8)
 
 
 @pytest.mark.parametrize("paper", ["lined", "squared", "lined, faint"])

@@ -96,7 +96,8 @@ def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0
                           * np.linspace(0.3, 1, h)[:, None])
     grey = light * (1.0 - scan.ink * cover)
     if scan.ruling:
-        grey = grey * (1.0 - 0.3 * _ruling(h, w, scan))
+        gap = max(4, int(round(scan.ruling * scan.size)))
+        grey = grey * (1.0 - 0.3 * ruled_lines(h, w, gap, scan.tilt, scan.squared))
     rng = np.random.default_rng(seed)
     grey = grey + rng.normal(0.0, scan.noise, grey.shape) if scan.noise > 0 else grey
     img = np.clip(grey * 255, 0, 255).astype(np.uint8)
@@ -106,18 +107,19 @@ def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0
         cv2.imwrite(str(path), img)
 
 
-def _ruling(h: int, w: int, scan: Scan) -> np.ndarray:
-    """The ruled lines of ``scan``'s paper (H, W) in [0, 1]."""
+def ruled_lines(h: int, w: int, gap: int, tilt: float = 0.0, squared: bool = False,
+                width: int = 2) -> np.ndarray:
+    """A page's ruled lines (H, W) in [0, 1]: ``width`` px wide, ``gap`` px apart across
+    it (and down it too, ``squared``), leaning ``tilt`` degrees."""
     import cv2
 
     lines = np.zeros((h, w), np.uint8)
-    gap = max(4, int(round(scan.ruling * scan.size)))
-    lean = float(np.tan(np.radians(scan.tilt)))
+    lean = float(np.tan(np.radians(tilt)))
     for y in range(-h, 2 * h, gap):
-        cv2.line(lines, (0, y), (w - 1, int(y + lean * w)), 255, 2, cv2.LINE_AA)
-    if scan.squared:
+        cv2.line(lines, (0, y), (w - 1, int(y + lean * w)), 255, width, cv2.LINE_AA)
+    if squared:
         for x in range(-w, 2 * w, gap):
-            cv2.line(lines, (x, 0), (int(x - lean * h), h - 1), 255, 2, cv2.LINE_AA)
+            cv2.line(lines, (x, 0), (int(x - lean * h), h - 1), 255, width, cv2.LINE_AA)
     return lines.astype(np.float32) / 255.0
 
 

@@ -48,7 +48,7 @@ from typing import Any
 from inkmotion.errors import InkmotionError, InputError, SpecError
 
 #: extensions of the recorded drawings a folder input expands to (and pictures of drawings,
-#: :data:`inkmotion.tracing.picture.SUFFIXES`)
+#: :data:`inkmotion.images.formats.PICTURE_SUFFIXES`)
 DRAWING_SUFFIXES = (".json", ".gml", ".svg")
 #: coverage above which a pixel counts as ink for the IoU
 INK_THRESHOLD = 0.5
@@ -96,7 +96,7 @@ def expand_inputs(inputs: Iterable[str]) -> list[str]:
     """Inputs as single sources: a folder becomes its drawings, *.json/*.gml/*.svg and
     pictures (PNG, JPEG, ...), sorted; files and ``scheme:value`` strings pass through (a
     missing file fails in its own row)."""
-    from inkmotion.tracing.picture import SUFFIXES as PICTURES
+    from inkmotion.images.formats import PICTURE_SUFFIXES as PICTURES
 
     sources: list[str] = []
     for item in inputs:

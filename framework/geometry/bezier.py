@@ -26,6 +26,8 @@ def hermite_segments(
     a = layout.segment_start  # (S,)
     b = a + 1
     h = (dt.index_select(0, layout.segment_path) / 3.0)[:, None]  # (S, 1)
+    # each end gathered once per use: one gather shared by two uses would add the
+    # positions' gradients up in another order (other bits, other plans)
     return torch.stack(
         (positions.index_select(0, a),
          positions.index_select(0, a) + h * velocities.index_select(0, a),

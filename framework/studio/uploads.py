@@ -33,8 +33,8 @@ PICTURE_MAGIC: dict[str, tuple[bytes, ...]] = {
 def _kinds() -> dict[str, tuple[str, tuple[bytes, ...]]]:
     """suffix -> (kind, the first bytes it may start with; empty: text, or a picture judged
     by its content): the recorded drawings, and every picture the tracer reads
-    (:data:`inkmotion.tracing.picture.SUFFIXES`)."""
-    from inkmotion.tracing.picture import SUFFIXES
+    (:data:`inkmotion.images.formats.PICTURE_SUFFIXES`)."""
+    from inkmotion.images.formats import PICTURE_SUFFIXES as SUFFIXES
 
     kinds: dict[str, tuple[str, tuple[bytes, ...]]] = {
         ".gml": ("tag", ()), ".json": ("tag", ()), ".xml": ("tag", ()), ".svg": ("svg", ())}

@@ -61,8 +61,6 @@ from inkmotion.geometry.input_file import checked_input_file
 from inkmotion.images.formats import PICTURE_FORMATS, PICTURE_SUFFIXES
 from inkmotion.tracing.ruling import drop_ruling
 
-#: file suffixes read as pictures (:mod:`inkmotion.images.formats`)
-SUFFIXES = PICTURE_SUFFIXES
 #: the ISO media brands of a HEIF file's 'ftyp' box (an iPhone's photos), which Pillow
 #: reads only through pillow-heif
 HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"mif1", b"msf1")
@@ -126,8 +124,9 @@ class Picture:
 
 
 def is_picture(source: str) -> bool:
-    """True for a path with a picture's suffix (:data:`SUFFIXES`)."""
-    return Path(source).suffix.lower() in SUFFIXES
+    """True for a path with a picture's suffix
+    (:data:`~inkmotion.images.formats.PICTURE_SUFFIXES`)."""
+    return Path(source).suffix.lower() in PICTURE_SUFFIXES
 
 
 @contextlib.contextmanager
@@ -388,8 +387,7 @@ def drop_edge_stripes(mask: np.ndarray) -> tuple[np.ndarray, list[str]]:
     (:func:`widest_stroke`) of it: a stroke that leaves the edge makes its piece too deep
     and keeps it."""
     h, w = mask.shape
-    outer = {"top": mask[0], "bottom": mask[-1], "left": mask[:, 0], "right": mask[:, -1]}
-    long = [side for side, line in outer.items()
+    long = [side for side, line in _outer(mask).items()
             if _longest_run(line) >= EDGE_RUN_SHARE * line.size]
     if not long:  # the usual page: one cheap look at its four sides
         return mask, []
@@ -399,8 +397,7 @@ def drop_edge_stripes(mask: np.ndarray) -> tuple[np.ndarray, list[str]]:
     band = widest_stroke(mask.shape)
     depth_of = {"top": lambda r, c: r, "bottom": lambda r, c: h - 1 - r,  # from that side
                 "left": lambda r, c: c, "right": lambda r, c: w - 1 - c}
-    outer_pieces = {"top": pieces[0], "bottom": pieces[-1], "left": pieces[:, 0],
-                    "right": pieces[:, -1]}
+    outer_pieces = _outer(pieces)
     out, sides = mask.copy(), []
     for side in long:
         line = outer_pieces[side]
@@ -412,6 +409,11 @@ def drop_edge_stripes(mask: np.ndarray) -> tuple[np.ndarray, list[str]]:
                 out[inside] = False
                 sides.append(side)
     return out, sides
+
+
+def _outer(a: np.ndarray) -> dict[str, np.ndarray]:
+    """The outermost row or column of ``a`` (H, W) on each side, by the side's name."""
+    return {"top": a[0], "bottom": a[-1], "left": a[:, 0], "right": a[:, -1]}
 
 
 def ink_level(ink: np.ndarray, depth: np.ndarray) -> float:
