@@ -3,9 +3,9 @@ see them, fitted from the picture alone, and scored against the recording.
 
 ``python -m inkmotion.benchmarks.pictures OUT SOURCE... [--steps N]`` renders each source
 at every :data:`SCANS` setting (``--scan NAME`` for some, or for the pencil sketches on
-plain, ruled and squared paper of :data:`PAPERS`), runs ``inkmotion run fit`` on the
-picture (a separate process, as a user would) and prints a table; ``OUT/pictures.json``
-holds every figure.
+plain, ruled and squared paper and the photo of a page on a desk of :data:`PAPERS`),
+runs ``inkmotion run fit`` on the picture (a separate process, as a user would) and
+prints a table; ``OUT/pictures.json`` holds every figure.
 
 Scores (fitted motion against the true trace, both on the fit's canvas):
 
@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import time
@@ -53,6 +54,8 @@ class Scan:
     ruling: float = 0.0  # ruled paper: its lines' spacing, a share of the size (0: plain)
     squared: bool = False  # ruled both ways (graph paper)
     tilt: float = 0.0  # degrees the ruling leans (a page photographed a little askew)
+    desk: float = 0.0  # a photo of the page on a desk: the share of the photo round it
+    turn: float = 0.0  # ... and the degrees the page is turned on the desk
 
 
 SCANS = (
@@ -64,9 +67,10 @@ SCANS = (
     Scan("photo-700-w5", size=700, brush=5.0, blur=1.0, noise=0.05, jpeg=70, paper=0.8,
          gradient=0.4),
 )
-#: pencil sketches on plain, ruled and squared paper (``--scan`` names them; not in the
-#: default set): the ruling's lines 2 px wide every 3.5 % of the size, leaning 1°,
-#: printed a third as dark as the paper (:mod:`inkmotion.tracing.ruling`)
+#: pencil sketches on plain, ruled and squared paper, and a photo of a page on a desk
+#: (``--scan`` names them; not in the default set): the ruling's lines 2 px wide every
+#: 3.5 % of the size, leaning 1°, printed a third as dark as the paper
+#: (:mod:`inkmotion.tracing.ruling`)
 PAPERS = (
     Scan("pencil-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.92,
          ink=0.55),
@@ -74,11 +78,17 @@ PAPERS = (
          ink=0.55, ruling=0.035, tilt=1.0),
     Scan("squared-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.92,
          ink=0.55, ruling=0.035, squared=True, tilt=1.0),
+    # a phone photo of the page on a grained dark desk (:mod:`inkmotion.tracing.page`)
+    Scan("desk-1000-w8", size=1000, brush=8.0, blur=1.0, noise=0.03, jpeg=70, paper=0.9,
+         gradient=0.25, desk=0.4, turn=3.0),
 )
 
 
-def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0) -> None:
-    """Draw ``strokes`` (picture px, pixel centres at half-integers) as ``scan`` says."""
+def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0
+                ) -> np.ndarray:
+    """Draw ``strokes`` (picture px, pixel centres at half-integers) as ``scan`` says;
+    returns the affine map (2, 3) from the strokes' px to the picture's (the identity but
+    for a page photographed on a desk)."""
     import cv2
 
     xs = np.concatenate([s[:, 0] for s in strokes])
@@ -99,12 +109,39 @@ def render_scan(strokes: list[np.ndarray], scan: Scan, path: Path, seed: int = 0
         gap = max(4, int(round(scan.ruling * scan.size)))
         grey = grey * (1.0 - 0.3 * ruled_lines(h, w, gap, scan.tilt, scan.squared))
     rng = np.random.default_rng(seed)
+    place = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    if scan.desk:
+        grey, place = on_a_desk(grey, scan.desk, scan.turn, rng)
     grey = grey + rng.normal(0.0, scan.noise, grey.shape) if scan.noise > 0 else grey
     img = np.clip(grey * 255, 0, 255).astype(np.uint8)
     if scan.jpeg:
         cv2.imwrite(str(path), img, [cv2.IMWRITE_JPEG_QUALITY, scan.jpeg])
     else:
         cv2.imwrite(str(path), img)
+    return place
+
+
+def on_a_desk(page: np.ndarray, share: float, turn: float, rng: np.random.Generator,
+              tone: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """A photo (grey, [0, 1]) of ``page`` lying on a desk ``tone`` as light, with a wood
+    grain, turned ``turn`` degrees, the desk taking ``share`` of the photo round it; and
+    the affine map (2, 3) from the page's px to the photo's."""
+    import cv2
+
+    h, w = page.shape
+    grow = 1.0 / math.sqrt(1.0 - share)
+    big_h, big_w = int(round(h * grow)), int(round(w * grow))
+    place = cv2.getRotationMatrix2D((w / 2, h / 2), turn, 1.0)
+    place[:, 2] += ((big_w - w) / 2, (big_h - h) / 2)
+    photo = cv2.warpAffine(page.astype(np.float32), place, (big_w, big_h),
+                           flags=cv2.INTER_LINEAR, borderValue=-1.0)
+    grain = tone * (1 + 0.15 * np.sin(np.linspace(0, 9 * big_w / 100, big_w))[None, :]
+                    * (1 + 0.5 * np.sin(np.linspace(0, 5, big_h)))[:, None])
+    grain = grain + rng.normal(0.0, 0.02, grain.shape)
+    photo = np.where(photo < 0, grain, photo)
+    centres = place.copy()  # pixel centres at half-integers, as the strokes have them
+    centres[:, 2] += 0.5 - place[:, :2] @ np.array([0.5, 0.5])
+    return cv2.GaussianBlur(photo.astype(np.float32), (0, 0), 0.8), centres
 
 
 def ruled_lines(h: int, w: int, gap: int, tilt: float = 0.0, squared: bool = False,
@@ -184,7 +221,8 @@ def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     truth = read_input(source).fit_to_canvas(scan.size).strokes  # picture px
     pic = folder / ("picture.jpg" if scan.jpeg else "picture.png")
-    render_scan(truth, scan, pic)
+    place = render_scan(truth, scan, pic)
+    truth = [s[:, :2] @ place[:, :2].T + place[:, 2] for s in truth]  # picture px
     cmd = [str(Path(sys.executable).parent / "inkmotion"), "run", "fit", str(pic), "--out",
            str(folder / "fit"), "--force", "--no-record"]
     if steps:

@@ -10,13 +10,17 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    converted, 16-bit and float greys scaled to [0, 1]; a photo whose EXIF
    orientation says it is stored turned or mirrored (a phone's portrait photo) is turned
    upright, as every viewer shows it, so its strokes run the way the user sees them.
-2. **Polarity**: the paper is what most of the page is (its median grey), and the ink is
+2. **The page in a photo** of one lying on a desk (:mod:`inkmotion.tracing.page`): found,
+   what lies round it is no ink (said in the notes), and the next steps look at the
+   page alone (its tones for the polarity, its bounds for a ruling). Not looked for
+   with ``invert``, nor kept where the page's own tones read as light ink.
+3. **Polarity**: the paper is what most of the page is (its median grey), and the ink is
    the side of it the page's extremes reach further into: its darkest and lightest
    :data:`TAIL` (a dim photo of black ink on grey paper is still dark ink; chalk on a
    blackboard is light ink). Where neither side is clearly further (too little ink to
    tell), a page whose median grey is below ½ is light ink on dark paper. Light ink is
    inverted (``invert=True`` forces it).
-3. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
+4. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
    paper itself: the grey image, its grain calmed by a 5 × 5 median, closed (max then
    min) over a window wider than any stroke; the ink is then 1 − grey / paper, in
    [0, 1]. Both keep the paper's own edges (a hard shadow across the page, the edge of a
@@ -24,7 +28,7 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    side, read as a line of ink along it. (Where a hard shadow's edge meets the picture's
    border at a sharp angle, the closing still fills the shadow's narrow tip: a short
    false stroke ends there.)
-4. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
+5. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
    blank page stays blank), burrs and notches of JPEG noise evened out (:func:`_tidy`,
    which keeps a line one pixel wide whole), small specks removed and pin-holes filled
    (:mod:`skimage.morphology`). The printed lines of ruled or squared paper are taken
@@ -33,7 +37,7 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    (:func:`drop_edge_stripes`): the edge of the page or a scanner's shadow. Both are
    said in the notes. A stroke that runs along the edge and leaves it (a T's bar cropped
    to the ink) is kept.
-5. **Ink level**: how dark the ink itself is (no ink is black: a marker on paper reads
+6. **Ink level**: how dark the ink itself is (no ink is black: a marker on paper reads
    about 0.85), the median darkness of the mask's solid core, the pixels at least
    :data:`SOLID_DEPTH` px inside it (out of a scan's blur); 1 when the strokes are too thin
    to have one. A fit renders ink as 1, so it compares its rendering with the darkness
@@ -59,6 +63,7 @@ import numpy as np
 from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import checked_input_file
 from inkmotion.images.formats import PICTURE_FORMATS, PICTURE_SUFFIXES
+from inkmotion.tracing.page import find_page
 from inkmotion.tracing.ruling import drop_ruling
 
 #: the ISO media brands of a HEIF file's 'ftyp' box (an iPhone's photos), which Pillow
@@ -73,7 +78,7 @@ PICTURE_FILE_BYTES = 4 * 2**30
 #: the least darkness, against the paper, that counts as ink
 MIN_CONTRAST = 0.18
 #: share of the page, at each end of its tones, whose distance from the median tells
-#: which side of the paper the ink is (step 2)
+#: which side of the paper the ink is (step 3)
 TAIL = 0.005
 #: σ (px) of the Gaussian that calms grain and JPEG noise before half-tones are measured
 DENOISE = 1.0
@@ -91,7 +96,7 @@ MAX_WIDTH_SHARE = 0.05
 #: character of a handwriting set at 105 px, whose crossings merge into wider ink)
 LEAST_WIDEST = 10.0
 #: ink flush with a side of the picture without a break over at least this share of it is
-#: a stripe along the edge (step 4), when it is no thicker than a stroke and alone
+#: a stripe along the edge (step 5), when it is no thicker than a stroke and alone
 EDGE_RUN_SHARE = 0.6
 
 
@@ -101,7 +106,7 @@ class Picture:
     (H, W) darkness against the flattened paper, [0, 1]; ``mask`` (H, W) bool, the ink
     after clean-up. ``scale`` is the decoded size over the file's (1 unless reduced);
     ``notes`` say what was done that a user should know (reduced, inverted);
-    ``ink_level`` the darkness of solid ink (module docstring, step 5)."""
+    ``ink_level`` the darkness of solid ink (module docstring, step 6)."""
 
     source: str
     grey: np.ndarray
@@ -285,7 +290,10 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     h, w = grey.shape
     if min(h, w) < 8:
         raise InputError(f"{source}: {w} × {h} px is too small to hold a drawing.")
-    inverted = invert or light_ink(grey)
+    page = None if invert else find_page(grey, widest_stroke(grey.shape))
+    inverted = invert or light_ink(grey if page is None else grey[page])
+    if inverted and page is not None:  # not a light page: light ink on the dark part
+        page, inverted = None, light_ink(grey)
     if inverted:
         grey = 1.0 - grey
         if not invert:
@@ -293,8 +301,12 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     import cv2
 
     ink = ink_map(grey)
+    if page is not None:
+        ink[~page] = 0.0
+        notes.append(f"the page was found in the photo, and what lies around it "
+                     f"({100 * (1 - page.mean()):.0f} % of the picture) was left out")
     level = ink_threshold(ink)
-    mask, ruling, ruled = drop_ruling(ink_mask(ink, level), ink, level)
+    mask, ruling, ruled = _drop_ruling_on(page, ink_mask(ink, level), ink, level)
     if ruled:
         notes.append(f"the paper's ruled lines ({', '.join(ruled)}) were left out")
     mask, sides = drop_edge_stripes(mask)
@@ -308,6 +320,23 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth))
 
 
+def _drop_ruling_on(page: np.ndarray | None, mask: np.ndarray, ink: np.ndarray,
+                    level: float | None) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+    """:func:`~inkmotion.tracing.ruling.drop_ruling` within the bounds of the ``page`` found
+    in a photo (its ruled lines run from edge to edge of the page, not of the photo), or
+    of the whole picture."""
+    if page is None:
+        return drop_ruling(mask, ink, level)
+    rows, cols = np.flatnonzero(page.any(axis=1)), np.flatnonzero(page.any(axis=0))
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    inside, bands, ruled = drop_ruling(mask[box], ink[box], level)
+    if bands is None:
+        return mask, None, ruled
+    out, ruling = mask.copy(), np.zeros_like(mask)
+    out[box], ruling[box] = inside, bands
+    return out, ruling, ruled
+
+
 def widest_stroke(shape: tuple[int, int]) -> float:
     """The widest strokes (px) line art may have on a page of ``shape``:
     :data:`MAX_WIDTH_SHARE` of its longer side, at least :data:`LEAST_WIDEST`."""
@@ -316,7 +345,7 @@ def widest_stroke(shape: tuple[int, int]) -> float:
 
 def light_ink(grey: np.ndarray) -> bool:
     """Whether the ink of the page ``grey`` is lighter than its paper (module docstring,
-    step 2): the side of the median its extremes reach further into, when that side
+    step 3): the side of the median its extremes reach further into, when that side
     reaches at least :data:`MIN_CONTRAST` and twice as far as the other; else whether the
     median is below ½."""
     low, paper, high = np.percentile(grey, [100 * TAIL, 50, 100 * (1 - TAIL)])
@@ -334,12 +363,12 @@ def paper_window(shape: tuple[int, int]) -> int:
 
 
 def ink_map(grey: np.ndarray) -> np.ndarray:
-    """Darkness of each pixel against its paper, [0, 1] (module docstring, step 3)."""
+    """Darkness of each pixel against its paper, [0, 1] (module docstring, step 4)."""
     import cv2
 
     k = paper_window(grey.shape)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
-    calm = cv2.medianBlur(grey, 5)  # a max over grain would lift the paper (step 3)
+    calm = cv2.medianBlur(grey, 5)  # a max over grain would lift the paper (step 4)
     # the closing removes the dark strokes; its window is cut short at the border (the
     # border carried on outward would widen a stroke that runs along it into paper)
     paper = cv2.morphologyEx(calm, cv2.MORPH_CLOSE, kernel)
@@ -347,7 +376,7 @@ def ink_map(grey: np.ndarray) -> np.ndarray:
 
 
 def ink_threshold(ink: np.ndarray) -> float | None:
-    """The darkness from which on a pixel is ink (module docstring, step 4): Otsu's
+    """The darkness from which on a pixel is ink (module docstring, step 5): Otsu's
     threshold between faint paper and ink, never above half the darkest ink (all ink
     alike), never below :data:`MIN_CONTRAST`; None on a page with no ink to tell."""
     from skimage.filters import threshold_otsu
@@ -361,7 +390,7 @@ def ink_threshold(ink: np.ndarray) -> float | None:
 
 def ink_mask(ink: np.ndarray, level: float | None) -> np.ndarray:
     """The ink (H, W) bool of a darkness map above ``level`` (:func:`ink_threshold`),
-    tidied (module docstring, step 4)."""
+    tidied (module docstring, step 5)."""
     from skimage.morphology import remove_small_holes, remove_small_objects
 
     if level is None:
@@ -380,7 +409,7 @@ def _longest_run(flags: np.ndarray) -> int:
 
 
 def drop_edge_stripes(mask: np.ndarray) -> tuple[np.ndarray, list[str]]:
-    """``mask`` without the stripes along its sides (module docstring, step 4), and the
+    """``mask`` without the stripes along its sides (module docstring, step 5), and the
     sides they were on ('top', 'bottom', 'left', 'right'). A stripe is a connected piece
     of ink whose outermost row (or column) is ink without a break over at least
     :data:`EDGE_RUN_SHARE` of that side, and all of which lies within a stroke's width
@@ -417,7 +446,7 @@ def _outer(a: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def ink_level(ink: np.ndarray, depth: np.ndarray) -> float:
-    """The darkness of solid ink (module docstring, step 5): the median of ``ink`` over the
+    """The darkness of solid ink (module docstring, step 6): the median of ``ink`` over the
     ink pixels at least :data:`SOLID_DEPTH` px from the paper (``depth``, the mask's
     distance transform); 1 with fewer than :data:`SOLID_LEAST` of them."""
     solid = ink[depth >= SOLID_DEPTH]
@@ -468,6 +497,9 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
                          "picture of line art on plain paper.")
     widest = 2.0 * float(np.percentile(depth[mask], 95))
     if widest > widest_stroke(mask.shape):
-        raise InputError(f"{source}: the dark areas are {widest:.0f} px wide, too wide for "
+        read = ("light areas (read as light ink on dark paper, as most of it is dark: if "
+                "the ink is dark, crop the picture to the paper it is on)"
+                if found_light else "dark areas")
+        raise InputError(f"{source}: the {read} are {widest:.0f} px wide, too wide for "
                          "line art on a page this size, so this is not a line drawing; use "
                          "a picture of line art (a photo is drawn by the 'abstract' kind).")

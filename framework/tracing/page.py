@@ -1,0 +1,198 @@
+"""The page in a photo of one lying on a desk: what lies around it is left out of the ink.
+
+A phone photo of a sketch often shows the desk round the page. Against its own dark
+tone a desk's grain, seams and JPEG noise are as dark as ink, so each would be traced
+as strokes; and where the desk fills much of the photo it can even make the page look
+like light ink on dark paper. So before anything else the page is looked for, and only
+what lies on it is ink.
+
+The page is the largest light region of the picture's *paper* (the grey, its strokes
+removed by a closing over a window wider than any stroke, at most :data:`WORK_SIDE` px
+across), when that region is what no drawing, light or shadow on a page is:
+
+- **large**: at least :data:`LEAST_AREA` of the picture, leaving at least
+  :data:`LEAST_AROUND` of it outside;
+- **a sheet**: convex (a sheet seen in perspective is a convex quadrilateral, its
+  corners perhaps curled): its area at least :data:`CONVEX` of its convex hull;
+- **edged**: where its outline lies inside the picture, the surround just beyond it
+  (:data:`EDGE_REACH` of the picture's size out) is at most :data:`DARKER` of the
+  paper just inside, on the median of the outline; light falling off across a page, or
+  a vignette, changes by a few per cent over that reach;
+- **not crossed**: no more than :data:`CROSSINGS` of the drawing's lines run on across
+  its outline into the surround (a hard shadow falling across the drawing is crossed by
+  the strokes it darkens; the edge of a sheet is not, since no ink lies beyond it).
+
+The page is then the convex hull of that region, drawn in the picture's own pixels and
+shrunk by the reach (the edge's blur and the sheet's own shadow), and everything outside
+it is paper. A light page only: chalk on a board, or ``--invert``, is not looked at.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: the page is looked for at this size (px, the longer side) at most
+WORK_SIDE = 512
+#: the page covers at least this share of the picture ...
+LEAST_AREA = 0.2
+#: ... and leaves at least this share of it around the page
+LEAST_AROUND = 0.02
+#: the page's region is at least this share of its convex hull
+CONVEX = 0.9
+#: just beyond the page's outline the surround is at most this share of the paper's grey
+DARKER = 0.7
+#: the reach (share of the picture's longer side) over which the edge is looked at, and
+#: by which the page is shrunk
+EDGE_REACH = 0.012
+#: a page's outline is crossed by at most this many lines of ink
+CROSSINGS = 1
+#: darkness against the local paper that counts as ink when crossings are counted
+CROSSING_INK = 0.25
+#: a page's edges inside the picture are at least this share of its shorter side long ...
+EDGE_LENGTH = 0.1
+#: ... and two of them meet at a corner: their directions differ by this much (degrees)
+CORNER = 45.0
+
+
+def find_page(grey: np.ndarray, widest: float) -> np.ndarray | None:
+    """The page (H, W) bool of a picture ``grey`` (H, W) in [0, 1] of dark ink on light
+    paper, or None where there is none to find (module docstring); ``widest`` (px) is the
+    widest stroke of line art on the picture
+    (:func:`inkmotion.tracing.picture.widest_stroke`)."""
+    import cv2
+
+    h, w = grey.shape
+    f = max(1.0, max(h, w) / WORK_SIDE)
+    small = cv2.resize(grey, (max(1, round(w / f)), max(1, round(h / f))),
+                       interpolation=cv2.INTER_AREA) if f > 1 else grey
+    k = (int(2.4 * widest / f) + 3) | 1  # wider than any stroke, as the paper estimate's
+    calm = cv2.medianBlur(small, 5)
+    # the picture carried on outward past its border: a strip of desk along it is then
+    # no narrow dark stroke for the closing to fill
+    wide = cv2.copyMakeBorder(calm, k, k, k, k, cv2.BORDER_REPLICATE)
+    paper = cv2.morphologyEx(wide, cv2.MORPH_CLOSE,
+                             cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))[k:-k, k:-k]
+    region = _light_region(paper)
+    if region is None:
+        return None
+    hull = cv2.convexHull(cv2.findContours(region.astype(np.uint8), cv2.RETR_EXTERNAL,
+                                           cv2.CHAIN_APPROX_NONE)[0][0])
+    hull_area = cv2.contourArea(hull)
+    area = float(region.sum())
+    if not (LEAST_AREA * region.size <= area and hull_area <= (1 - LEAST_AROUND) * region.size
+            and area >= CONVEX * hull_area):
+        return None
+    if not _has_a_corner(hull, small.shape):
+        return None
+    outline = np.zeros(small.shape, np.uint8)
+    cv2.fillPoly(outline, [hull.reshape(-1, 2)], 1)
+    beyond = cv2.distanceTransform(1 - outline, cv2.DIST_L2, 3)
+    if float(beyond.max()) * f < widest:  # a stroke along the border, not a desk
+        return None
+    reach = max(2.0, EDGE_REACH * max(small.shape))
+    inside, outside = _either_side(hull, reach, small.shape)
+    if inside is None:
+        return None
+    if np.median(paper[outside]) > DARKER * np.median(paper[inside]):
+        return None
+    dark = 1.0 - calm / np.maximum(paper, 1e-3) > CROSSING_INK
+    if _crossings(dark, hull, reach, small.shape) > CROSSINGS:
+        return None
+    page = np.zeros((h, w), np.uint8)
+    cv2.fillPoly(page, [np.round(hull.reshape(-1, 2) * f).astype(np.int32)], 1)
+    shrink = int(math.ceil(reach * f))
+    page = cv2.erode(page, cv2.getStructuringElement(cv2.MORPH_ELLIPSE,
+                                                     (2 * shrink + 1, 2 * shrink + 1)))
+    return page.astype(bool)
+
+
+def _has_a_corner(hull: np.ndarray, shape: tuple[int, int]) -> bool:
+    """Whether two long edges of the outline ``hull`` that lie inside the picture (not
+    along its border) turn by :data:`CORNER` or more from each other: a page's corner. A
+    hard shadow across a page has one straight or curved edge, no corner."""
+    import cv2
+
+    h, w = shape
+    poly = cv2.approxPolyDP(hull, 0.01 * cv2.arcLength(hull, True), True).reshape(-1, 2)
+    angles = []
+    for a, b in zip(poly, np.roll(poly, -1, axis=0), strict=True):
+        on_border = any(abs(float(a[i]) - edge) <= 1.5 and abs(float(b[i]) - edge) <= 1.5
+                        for i, edge in ((0, 0), (0, w - 1), (1, 0), (1, h - 1)))
+        if not on_border and np.hypot(*(b - a).astype(float)) >= EDGE_LENGTH * min(h, w):
+            angles.append(math.degrees(math.atan2(float(b[1] - a[1]), float(b[0] - a[0]))))
+    for i, x in enumerate(angles):
+        for y in angles[i + 1:]:
+            turn = abs((x - y + 180.0) % 360.0 - 180.0)
+            if CORNER <= turn <= 180.0 - CORNER:
+                return True
+    return False
+
+
+def _light_region(paper: np.ndarray) -> np.ndarray | None:
+    """The largest connected region of the light side of ``paper`` (Otsu's threshold of
+    its tones), its holes filled; None for a paper of one tone."""
+    import cv2
+    from skimage.filters import threshold_otsu
+
+    if float(paper.max() - paper.min()) < 0.1:
+        return None
+    tone = np.log(np.maximum(paper, 1e-3))  # light falls off by a factor, not a step
+    light = (tone > threshold_otsu(tone)).astype(np.uint8)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(light, connectivity=8)
+    if count < 2:
+        return None
+    largest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    region = (labels == largest).astype(np.uint8)
+    contours = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)[0]
+    filled = np.zeros_like(region)
+    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+    return filled.astype(bool)
+
+
+def _either_side(hull: np.ndarray, reach: float, shape: tuple[int, int]
+                 ) -> tuple[np.ndarray | None, np.ndarray]:
+    """The (row, column) places ``reach`` px inside and outside the outline ``hull``
+    (convex, from :func:`cv2.convexHull`), one pair a pixel along it, where the outside
+    place is in the picture (the page's edges on the picture's border have no surround
+    to look at); (None, ...) when fewer than a tenth of the outline has one."""
+    inside, outside, total = [], [], 0
+    pts = hull.reshape(-1, 2).astype(float)
+    centre = pts.mean(axis=0)
+    h, w = shape
+    for a, b in zip(pts, np.roll(pts, -1, axis=0), strict=True):
+        length = float(np.hypot(*(b - a)))
+        if length < 1:
+            continue
+        normal = np.array([b[1] - a[1], a[0] - b[0]]) / length  # either way round ...
+        if np.dot(normal, (a + b) / 2 - centre) < 0:  # ... made to point out of the page
+            normal = -normal
+        for t in np.linspace(0, 1, int(length), endpoint=False):
+            p = a + t * (b - a)
+            total += 1
+            o, i = np.round(p + reach * normal), np.round(p - reach * normal)
+            if 0 <= o[0] < w and 0 <= o[1] < h and 0 <= i[0] < w and 0 <= i[1] < h:
+                inside.append((int(i[1]), int(i[0])))
+                outside.append((int(o[1]), int(o[0])))
+    if len(outside) < 0.1 * max(total, 1):
+        return None, np.zeros((2, 0), int)
+    return tuple(np.array(inside).T), tuple(np.array(outside).T)  # type: ignore[return-value]
+
+
+def _crossings(dark: np.ndarray, hull: np.ndarray, reach: float,
+               shape: tuple[int, int]) -> int:
+    """How many pieces of ink (``dark``, (H, W) bool) reach both ``reach`` px inside the
+    outline ``hull`` and ``reach`` px outside it: lines that run on across it."""
+    import cv2
+
+    r = max(1, int(round(reach)))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    page = np.zeros(shape, np.uint8)
+    cv2.fillPoly(page, [hull.reshape(-1, 2).astype(np.int32)], 1)
+    deep_in = cv2.erode(page, disc).astype(bool)
+    far_out = ~cv2.dilate(page, disc).astype(bool)
+    _, labels = cv2.connectedComponents(dark.astype(np.uint8), connectivity=8)
+    across = np.intersect1d(np.unique(labels[deep_in & dark]),
+                            np.unique(labels[far_out & dark]))
+    return int((across > 0).sum())
