@@ -608,6 +608,26 @@ def test_a_photo_of_a_page_on_a_desk_leaves_the_desk_out(tmp_path: Path, share: 
     assert 200 < xs.min() and xs.max() < 600  # on the drawing, not on the desk
 
 
+def test_both_pages_of_an_open_notebook_are_the_page(tmp_path: Path) -> None:
+    """An open notebook on a desk: its two pages, apart across the gutter's shadow, are
+    one page together, and the drawing on each is traced."""
+    rng = np.random.default_rng(0)
+    h, w = 500, 700
+    img = 0.3 * (1 + 0.2 * np.sin(np.linspace(0, 40, w)))[None, :] + rng.normal(0, 0.02,
+                                                                                (h, w))
+    img[60:440, 60:345] = img[60:440, 355:640] = 0.88  # the pages
+    img[60:440, 345:355] = 0.4  # the gutter
+    img = np.clip(img * 255, 0, 255).astype(np.uint8)
+    for pts in ([(100, 150), (300, 160)], [(200, 100), (210, 400)],  # a cross on each
+                [(400, 250), (600, 260)], [(500, 100), (510, 400)]):
+        line(img, pts, ink=30)
+    picture = read_picture(save(tmp_path, img, "open.png"))
+    assert [n for n in picture.notes if "page was found" in n], picture.notes
+    strokes = trace_picture(picture).strokes
+    xs = [float(np.mean(s[:, 0])) for s in strokes]
+    assert sum(x < 340 for x in xs) == 2 and sum(x > 360 for x in xs) == 2, xs
+
+
 def test_a_photographed_ruled_page_loses_its_ruling_too(tmp_path: Path) -> None:
     """The ruled lines of a page on a desk run from edge to edge of the page, not of the
     photo: they are looked for within the page."""

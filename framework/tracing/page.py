@@ -7,20 +7,27 @@ like light ink on dark paper. So before anything else the page is looked for, an
 what lies on it is ink.
 
 The page is the largest light region of the picture's *paper* (the grey, its strokes
-removed by a closing over a window wider than any stroke, at most :data:`WORK_SIDE` px
-across), when that region is what no drawing, light or shadow on a page is:
+removed by a closing over a window wider than any stroke, the picture carried on past
+its border so that a strip of desk along it stays; at most :data:`WORK_SIDE` px across),
+together with the light regions at least :data:`TOGETHER` as large (an open notebook's
+two pages, apart across the gutter's shadow), when it is what no drawing, light or
+shadow on a page is:
 
 - **large**: at least :data:`LEAST_AREA` of the picture, leaving at least
-  :data:`LEAST_AROUND` of it outside;
+  :data:`LEAST_AROUND` of it outside, and that surround wider than any stroke (a line
+  drawn along the picture's border is no desk);
 - **a sheet**: convex (a sheet seen in perspective is a convex quadrilateral, its
   corners perhaps curled): its area at least :data:`CONVEX` of its convex hull;
+- **cornered**: two of its edges inside the picture, each at least :data:`EDGE_LENGTH`
+  of the picture long, turn by :data:`CORNER` or more (a corner of the sheet is in
+  view; a hard shadow across a page has one edge, straight or curved);
 - **edged**: where its outline lies inside the picture, the surround just beyond it
   (:data:`EDGE_REACH` of the picture's size out) is at most :data:`DARKER` of the
   paper just inside, on the median of the outline; light falling off across a page, or
   a vignette, changes by a few per cent over that reach;
 - **not crossed**: no more than :data:`CROSSINGS` of the drawing's lines run on across
-  its outline into the surround (a hard shadow falling across the drawing is crossed by
-  the strokes it darkens; the edge of a sheet is not, since no ink lies beyond it).
+  its outline into the surround (a shadow falling across the drawing is crossed by the
+  strokes it darkens; the edge of a sheet is not, since no ink lies beyond it).
 
 The page is then the convex hull of that region, drawn in the picture's own pixels and
 shrunk by the reach (the edge's blur and the sheet's own shadow), and everything outside
@@ -50,6 +57,9 @@ EDGE_REACH = 0.012
 CROSSINGS = 1
 #: darkness against the local paper that counts as ink when crossings are counted
 CROSSING_INK = 0.25
+#: light regions at least this share of the largest's area are the page with it (the two
+#: pages of an open notebook): the page is then their hull, if they make a convex whole
+TOGETHER = 0.25
 #: a page's edges inside the picture are at least this share of its shorter side long ...
 EDGE_LENGTH = 0.1
 #: ... and two of them meet at a corner: their directions differ by this much (degrees)
@@ -77,8 +87,9 @@ def find_page(grey: np.ndarray, widest: float) -> np.ndarray | None:
     region = _light_region(paper)
     if region is None:
         return None
-    hull = cv2.convexHull(cv2.findContours(region.astype(np.uint8), cv2.RETR_EXTERNAL,
-                                           cv2.CHAIN_APPROX_NONE)[0][0])
+    contours = cv2.findContours(region.astype(np.uint8), cv2.RETR_EXTERNAL,
+                                cv2.CHAIN_APPROX_NONE)[0]
+    hull = cv2.convexHull(np.concatenate(contours))
     hull_area = cv2.contourArea(hull)
     area = float(region.sum())
     if not (LEAST_AREA * region.size <= area and hull_area <= (1 - LEAST_AROUND) * region.size
@@ -132,7 +143,8 @@ def _has_a_corner(hull: np.ndarray, shape: tuple[int, int]) -> bool:
 
 def _light_region(paper: np.ndarray) -> np.ndarray | None:
     """The largest connected region of the light side of ``paper`` (Otsu's threshold of
-    its tones), its holes filled; None for a paper of one tone."""
+    its tones) with those at least :data:`TOGETHER` as large, their holes filled; None for
+    a paper of one tone."""
     import cv2
     from skimage.filters import threshold_otsu
 
@@ -143,8 +155,10 @@ def _light_region(paper: np.ndarray) -> np.ndarray | None:
     count, labels, stats, _ = cv2.connectedComponentsWithStats(light, connectivity=8)
     if count < 2:
         return None
-    largest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    region = (labels == largest).astype(np.uint8)
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    # a notebook's two pages, apart across the gutter's shadow, are one page together
+    region = np.isin(labels, 1 + np.flatnonzero(areas >= TOGETHER * areas.max())).astype(
+        np.uint8)
     contours = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)[0]
     filled = np.zeros_like(region)
     cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
