@@ -29,7 +29,8 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    border at a sharp angle, the closing still fills the shadow's narrow tip: a short
    false stroke ends there.)
 5. **Ink mask**: Otsu's threshold of that darkness (never below :data:`MIN_CONTRAST`, so a
-   blank page stays blank), burrs and notches of JPEG noise evened out (:func:`_tidy`,
+   blank page stays blank; a grainy picture, a dim photo's, calmed first: :data:`GRAINY`),
+   burrs and notches of JPEG noise evened out (:func:`_tidy`,
    which keeps a line one pixel wide whole), small specks removed and pin-holes filled
    (:mod:`skimage.morphology`). The printed lines of ruled or squared paper are taken
    out (:mod:`inkmotion.tracing.ruling`), and so is a stripe flush with one side of the
@@ -82,6 +83,10 @@ MIN_CONTRAST = 0.18
 TAIL = 0.005
 #: σ (px) of the Gaussian that calms grain and JPEG noise before half-tones are measured
 DENOISE = 1.0
+#: a picture whose ink threshold is less than this many times its paper's grain
+#: (:func:`grain`) is calmed (σ :data:`DENOISE`) before the ink is told from the paper:
+#: raw, its strokes' outlines are ragged with noise and their skeletons split into spurs
+GRAINY = 6.0
 #: a page with more ink than this share is not line art
 MAX_INK_SHARE = 0.35
 #: pixels at least this far (px) inside the ink mask are solid ink, out of reach of a
@@ -291,7 +296,7 @@ def read_picture(source: str, invert: bool = False) -> Picture:
     if min(h, w) < 8:
         raise InputError(f"{source}: {w} × {h} px is too small to hold a drawing.")
     page = None if invert else find_page(grey, widest_stroke(grey.shape))
-    inverted = invert or light_ink(grey if page is None else grey[page])
+    inverted = invert or light_ink(grey, page)
     if inverted and page is not None:  # not a light page: light ink on the dark part
         page, inverted = None, light_ink(grey)
     if inverted:
@@ -306,6 +311,11 @@ def read_picture(source: str, invert: bool = False) -> Picture:
         notes.append(f"the page was found in the photo, and what lies around it "
                      f"({100 * (1 - page.mean()):.0f} % of the picture) was left out")
     level = ink_threshold(ink)
+    if level is not None and level < GRAINY * grain(ink, level):
+        ink = cv2.GaussianBlur(ink, (0, 0), DENOISE)
+        level = ink_threshold(ink)
+        notes.append("the picture is grainy (a dim photo?): its grain was calmed before "
+                     "the ink was told from the paper")
     mask, ruling, ruled = _drop_ruling_on(page, ink_mask(ink, level), ink, level)
     if ruled:
         notes.append(f"the paper's ruled lines ({', '.join(ruled)}) were left out")
@@ -343,12 +353,18 @@ def widest_stroke(shape: tuple[int, int]) -> float:
     return max(MAX_WIDTH_SHARE * max(shape), LEAST_WIDEST)
 
 
-def light_ink(grey: np.ndarray) -> bool:
-    """Whether the ink of the page ``grey`` is lighter than its paper (module docstring,
-    step 3): the side of the median its extremes reach further into, when that side
-    reaches at least :data:`MIN_CONTRAST` and twice as far as the other; else whether the
-    median is below ½."""
-    low, paper, high = np.percentile(grey, [100 * TAIL, 50, 100 * (1 - TAIL)])
+def light_ink(grey: np.ndarray, page: np.ndarray | None = None) -> bool:
+    """Whether the ink of the picture ``grey`` (H, W), on its ``page`` (H, W) bool where
+    one was found, is lighter than its paper (module docstring, step 3): the side of the
+    median its extremes reach further into, when that side reaches at least
+    :data:`MIN_CONTRAST` and twice as far as the other; else whether the median is below
+    ½. The extremes are read with the grain calmed (:data:`DENOISE`): a dim photo's noise
+    reaches as far above its paper as below, and would hide which side its ink is on."""
+    import cv2
+
+    calm = cv2.GaussianBlur(grey, (0, 0), DENOISE)
+    tones = calm if page is None else calm[page]
+    low, paper, high = np.percentile(tones, [100 * TAIL, 50, 100 * (1 - TAIL)])
     dark, light = paper - low, high - paper
     if max(dark, light) >= MIN_CONTRAST and max(dark, light) >= 2 * min(dark, light):
         return bool(light > dark)
@@ -386,6 +402,15 @@ def ink_threshold(ink: np.ndarray) -> float | None:
         return None
     return max(MIN_CONTRAST, min(float(threshold_otsu(dark)),
                                  0.5 * float(np.percentile(dark, 99))))
+
+
+def grain(ink: np.ndarray, level: float) -> float:
+    """How grainy the paper of a darkness map ``ink`` is: the spread (σ, from the median
+    absolute deviation) of its pixels lighter than half the ink's threshold ``level``."""
+    paper = ink[ink < 0.5 * level]
+    if paper.size < 16:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(paper - np.median(paper))))
 
 
 def ink_mask(ink: np.ndarray, level: float | None) -> np.ndarray:
