@@ -719,7 +719,7 @@ def test_a_dim_grainy_photo_is_dark_ink_traced_as_the_scan(tmp_path: Path) -> No
                 params=[cv2.IMWRITE_JPEG_QUALITY, 75])
     raw = ink_map(cv2.imread(path, cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255)
     level = ink_threshold(raw)
-    assert level is not None and level < 6 * grain(raw, level)  # grainy, as GRAINY says
+    assert level is not None and level < GRAINY * grain(raw, level)  # the case at hand
     picture = read_picture(path)
     assert not picture.inverted and [n for n in picture.notes if "grainy" in n]
     assert len(trace_picture(picture).strokes) == len(scanned) == 4
