@@ -725,6 +725,26 @@ def test_a_dim_grainy_photo_is_dark_ink_traced_as_the_scan(tmp_path: Path) -> No
     assert len(trace_picture(picture).strokes) == len(scanned) == 4
 
 
+@pytest.mark.parametrize("name", ["yellow.png", "yellow.jpg"])
+def test_a_yellow_marker_is_read_from_its_colour(tmp_path: Path, name: str) -> None:
+    """A yellow marker on white paper is nearly as light as the paper in grey (luminance
+    0.8), so the page looked blank: it is read again from each pixel's darkest colour
+    channel, and that is said. A marker that shows in grey keeps its grey."""
+    strokes = {}
+    for colour, bgr in (("yellow", (40, 225, 245)), ("blue", (200, 80, 30))):
+        img = np.full((300, 400, 3), 245, np.uint8)
+        for pts in ([(60, 100), (340, 100)], [(200, 40), (200, 260)]):
+            cv2.polylines(img, [np.array(pts, np.int32)], False, bgr, 7, cv2.LINE_AA)
+        path = save(tmp_path, img, f"{colour}-{name}", params=[cv2.IMWRITE_JPEG_QUALITY, 80])
+        picture = read_picture(path)
+        said = [n for n in picture.notes if "from its colour" in n]
+        assert bool(said) == (colour == "yellow"), picture.notes
+        strokes[colour] = trace_picture(picture).strokes
+    assert len(strokes["yellow"]) == len(strokes["blue"]) == 2
+    for s, t in zip(strokes["yellow"], strokes["blue"], strict=True):
+        assert np.abs(s[[0, -1], :2] - t[[0, -1], :2]).max() < 3
+
+
 def test_invert_forces_light_ink_on_dark_paper(tmp_path: Path) -> None:
     img = np.full((300, 400), 20, np.uint8)  # mostly paper, so detection would agree
     path = save(tmp_path, line(img, [(60, 150), (340, 150)], ink=230))

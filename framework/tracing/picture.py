@@ -76,6 +76,10 @@ WORK_PIXELS = 4_000_000
 REFUSE_PIXELS = 400_000_000
 #: a picture file may be this large: what is limited is its pixel count (REFUSE_PIXELS)
 PICTURE_FILE_BYTES = 4 * 2**30
+#: what a colour picture is read as: its luminance, or where that shows no ink (a yellow
+#: marker is nearly as light as white paper), each pixel's darkest colour channel (for
+#: dark ink; its lightest for light ink on dark paper)
+TONES = ("grey", "darkest", "lightest")
 #: the least darkness, against the paper, that counts as ink
 MIN_CONTRAST = 0.18
 #: share of the page, at each end of its tones, whose distance from the median tells
@@ -203,9 +207,10 @@ def _register_heif(shown: str) -> None:
     pillow_heif.register_heif_opener()
 
 
-def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
-    """Grey (H, W) float32 in [0, 1] of the picture file ``source``, the decoded size over
-    the file's, and notes (module docstring, step 1)."""
+def decode(source: str, tone: str = "grey") -> tuple[np.ndarray, float, list[str]]:
+    """Grey (H, W) float32 in [0, 1] of the picture file ``source`` (a colour picture's
+    ``tone``, :data:`TONES`), the decoded size over the file's, and notes (module
+    docstring, step 1)."""
     from PIL import Image
 
     from inkmotion.images.orientation import orientation_of, upright
@@ -216,9 +221,9 @@ def decode(source: str) -> tuple[np.ndarray, float, list[str]]:
         orientation = orientation_of(img)  # applied to the decoded grey array
         factor = max(1, math.ceil(math.sqrt(w * h / WORK_PIXELS)))
         if factor > 1 and img.format == "JPEG":
-            img.draft("L", (w // factor, h // factor))
+            img.draft("L" if tone == "grey" else "RGB", (w // factor, h // factor))
         img.load()
-        img = _flatten(img)
+        img = _flatten(img, tone)
         if factor > 1:
             step = max(1, round(img.size[0] / (w / factor)))
             if step > 1:
@@ -241,12 +246,14 @@ def _reason(exc: BaseException) -> str:
     return text[:80] if text else type(exc).__name__
 
 
-def _flatten(img: object) -> object:
+def _flatten(img: object, tone: str = "grey") -> object:
     """The image in mode 'L', 'I;16'-like 'I' or 'F': palettes and colour converted to
-    luminance, alpha composited over a paper of the opposite tone to what it shows: white
-    under dark strokes (an app's export), black under light ones (a white logo on a
-    transparent background, which over white would vanish), so the drawing is the
-    visible part either way; polarity is then detected as for any picture."""
+    luminance (``tone`` "grey"), or to the darkest or lightest of each pixel's colour
+    channels ("darkest", "lightest": :data:`TONES`), alpha composited over a paper of the
+    opposite tone to what it shows: white under dark strokes (an app's export), black
+    under light ones (a white logo on a transparent background, which over white would
+    vanish), so the drawing is the visible part either way; polarity is then detected
+    as for any picture."""
     from PIL import Image
 
     assert isinstance(img, Image.Image)
@@ -257,14 +264,27 @@ def _flatten(img: object) -> object:
     if mode in ("RGBA", "LA", "RGBa", "La", "PA"):
         img = img.convert("RGBA")
         alpha = np.asarray(img.getchannel("A"), np.float32)
-        tone = np.asarray(img.convert("L"), np.float32)
-        shown = float((alpha * tone).sum() / max(float(alpha.sum()), 1.0))  # 0–255
+        shade = np.asarray(img.convert("L"), np.float32)
+        shown = float((alpha * shade).sum() / max(float(alpha.sum()), 1.0))  # 0–255
         under = 0 if shown > 127.5 else 255
         paper = Image.new("RGBA", img.size, (under, under, under, 255))
-        img = Image.alpha_composite(paper, img).convert("L")
+        img = _channels(Image.alpha_composite(paper, img), tone)
     elif mode in ("RGB", "CMYK", "YCbCr", "LAB", "HSV", "RGBX", "1"):
-        img = img.convert("L")
+        img = _channels(img, tone)
     return img
+
+
+def _channels(img: object, tone: str) -> object:
+    """A colour image as one 'L' channel: its luminance, or each pixel's darkest or
+    lightest colour channel (``tone``, :data:`TONES`)."""
+    from PIL import Image
+
+    assert isinstance(img, Image.Image)
+    if tone == "grey" or img.mode == "1":
+        return img.convert("L")
+    rgb = np.asarray(img.convert("RGB"))
+    return Image.fromarray(np.ascontiguousarray(
+        rgb.min(axis=2) if tone == "darkest" else rgb.max(axis=2)), mode="L")
 
 
 def _grey_array(img: object) -> np.ndarray:
@@ -288,13 +308,38 @@ def _grey_array(img: object) -> np.ndarray:
 
 def read_picture(source: str, invert: bool = False) -> Picture:
     """The :class:`Picture` of the file ``source`` (module docstring); ``invert`` forces
-    light ink on dark paper, otherwise it is detected."""
+    light ink on dark paper, otherwise it is detected. A colour picture whose luminance
+    shows no ink is read again from its colour (:data:`TONES`), and that is said."""
     # there, no folder, not empty; its size is limited by its pixels, read from its header
     checked_input_file(source, "a picture of a line drawing", limit=PICTURE_FILE_BYTES)
     grey, scale, notes = decode(source)
     h, w = grey.shape
     if min(h, w) < 8:
         raise InputError(f"{source}: {w} × {h} px is too small to hold a drawing.")
+    try:
+        return _picture_of(source, grey, scale, notes, invert)
+    except _Blank as blank:
+        tone = "lightest" if blank.light or invert else "darkest"
+        coloured, _, _ = decode(source, tone)
+        if np.array_equal(coloured, grey):  # a grey picture: no colour to read
+            raise
+        notes.append(f"the ink was read from its colour (its {tone} channel): in grey it "
+                     "is nearly as light as the paper")
+        return _picture_of(source, coloured, scale, notes, invert)
+
+
+class _Blank(InputError):
+    """A page on which no ink was found; ``light``: it was read as light ink."""
+
+    def __init__(self, light: bool, message: str) -> None:
+        super().__init__(message)
+        self.light = light
+
+
+def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
+                invert: bool) -> Picture:
+    """Steps 2–6 of the module docstring on a decoded ``grey`` picture."""
+    notes = list(notes)
     page = None if invert else find_page(grey, widest_stroke(grey.shape))
     inverted = invert or light_ink(grey, page)
     if inverted and page is not None:  # not a light page: light ink on the dark part
@@ -504,11 +549,11 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
     share = float(mask.mean())
     if share == 0.0 or mask.sum() < 16:
         if found_light:
-            raise InputError(f"{source}: no ink was found on this page, read as light ink on "
-                             "dark paper (most of it is dark); if the ink is dark, crop the "
-                             "picture to the paper it is on.")
-        raise InputError(f"{source}: no ink was found on this page (it looks blank); check "
-                         "the file, or pass --invert for light ink on dark paper.")
+            raise _Blank(found_light, f"{source}: no ink was found on this page, read as "
+                         "light ink on dark paper (most of it is dark); if the ink is dark, "
+                         "crop the picture to the paper it is on.")
+        raise _Blank(found_light, f"{source}: no ink was found on this page (it looks blank); "
+                     "check the file, or pass --invert for light ink on dark paper.")
     if share > MAX_INK_SHARE:
         raise InputError(f"{source}: {100 * share:.0f} % of the page is ink, which is not a line "
                          "drawing; crop it to the drawing, or pass --invert if the paper is "
