@@ -543,6 +543,19 @@ def test_a_ruled_pages_margin_line_is_left_out(tmp_path: Path) -> None:
     assert len(strokes) == len(alone) == 2, [s[[0, -1], :2].round().tolist() for s in strokes]
 
 
+def test_a_drawing_of_ruled_lines_is_no_ruling(tmp_path: Path) -> None:
+    """A frame with a line across its middle, drawn as an app draws it: three straight
+    lines from edge to edge, evenly apart, as thick all along. Taken for a ruling, the
+    whole drawing was left out and the page refused as blank; they are the drawing."""
+    img = page((400, 400))
+    cv2.rectangle(img, (5, 5), (394, 394), 20, 3)
+    cv2.line(img, (5, 200), (394, 200), 20, 3)
+    picture = read_picture(save(tmp_path, img))
+    assert not [n for n in picture.notes if "ruled" in n], picture.notes
+    strokes = trace_picture(picture).strokes
+    assert 2 <= len(strokes) <= 4 and sum(_length_of(s) for s in strokes) > 1900
+
+
 def test_strokes_standing_evenly_apart_are_no_ruling(tmp_path: Path) -> None:
     """A fence of upright strokes evenly spaced, as a word's stems may stand, is drawn:
     they do not run from edge to edge of the picture as a ruling's lines do."""

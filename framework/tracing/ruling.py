@@ -27,7 +27,9 @@ when the drawing's ink lies just beyond the band on both sides of it (a stroke a
 the line, as faint as the line). What is kept in a band must run on across it, further
 than the line is thick (a vertical opening): a piece of a line beside a stroke,
 darkened by its blur, does not, and would grow a spur. Crumbs of a line left apart go.
-Where a stroke runs along a ruled line as faint as the line, it is lost there.
+Where a stroke runs along a ruled line as faint as the line, it is lost there. Lines
+whose removal would leave (nearly) no ink are the drawing itself, drawn with a ruler (a
+frame with a line across it, a table), and stay.
 """
 
 from __future__ import annotations
@@ -39,6 +41,11 @@ import numpy as np
 
 #: the fewest parallel lines that make a ruling
 LEAST_LINES = 3
+#: lines whose removal would leave less ink than this share of the mask (or these many
+#: pixels) are the drawing itself — a frame with a line across, a table, a grid drawn
+#: with a ruler — not its paper's ruling: a blank ruled page is traced as its lines
+LEAST_LEFT = 0.01
+LEAST_LEFT_PX = 16
 #: a ruled line runs from edge to edge: its ink from first to last spans this share of
 #: the picture at least
 SPAN = 0.9
@@ -108,6 +115,8 @@ def drop_ruling(mask: np.ndarray, ink: np.ndarray, level: float | None
         return mask, None, []
     for turned in {False, True} - ruled:  # a ruled page's margin runs across its ruling
         take(turned, _margin_lines, "margin line")
+    if out.sum() < max(LEAST_LEFT_PX, LEAST_LEFT * mask.sum()):
+        return mask, None, []  # the lines are the drawing: a frame, a table, a grid
     return np.ascontiguousarray(out), bands, said
 
 
