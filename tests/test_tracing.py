@@ -621,6 +621,26 @@ def test_a_photo_of_a_page_on_a_desk_leaves_the_desk_out(tmp_path: Path, share: 
     assert 200 < xs.min() and xs.max() < 600  # on the drawing, not on the desk
 
 
+def test_the_page_found_is_outlined_in_strokes_png(tmp_path: Path) -> None:
+    """strokes.png shows what was taken for the page: its outline, in black, where the
+    desk begins to be left out; a picture with no page found has none."""
+    from inkmotion.tracing.outputs import write_trace
+
+    for name, img in (("desk.jpg", desk_photo(0.55, 4.0)), ("scan.png", drawing())):
+        picture = read_picture(save(tmp_path, img, name))
+        folder = tmp_path / name.split(".")[0]
+        folder.mkdir()
+        write_trace(trace_picture(picture), picture.grey, folder, picture.page)
+        png = cv2.imread(str(folder / "strokes.png"))
+        black = (png.max(axis=2) < 40).sum()
+        if picture.page is None:
+            assert name == "scan.png" and black == 0
+        else:
+            edge = picture.page ^ cv2.erode(picture.page.astype(np.uint8),
+                                            np.ones((3, 3), np.uint8)).astype(bool)
+            assert black > 0.5 * edge.sum(), (black, edge.sum())
+
+
 def test_both_pages_of_an_open_notebook_are_the_page(tmp_path: Path) -> None:
     """An open notebook on a desk: its two pages, apart across the gutter's shadow, are
     one page together, and the drawing on each is traced."""

@@ -52,7 +52,7 @@ def trace_cmd(
                                       varying_width=True)
         with StagingDir(out) as stage:
             assert stage.path is not None
-            names = write_trace(traces, picture.grey, stage.path)
+            names = write_trace(traces, picture.grey, stage.path, picture.page)
     except InkmotionError as exc:
         fail(exc)
     ex = traces.meta.get("extraction", {})

@@ -4,7 +4,9 @@
   first to the last, with an arrow head at its end and its number at its start;
 - ``strokes.gml``: the strokes as a GML tag (points normalised to the picture's longer
   side, y down; times none), which any GML tool opens and ``inkmotion run fit`` reads;
-- ``strokes.png``: the strokes over the picture, numbered, with arrows;
+- ``strokes.png``: the strokes over the picture, numbered, with arrows (and in a photo of
+  a page on a desk, the outline of the page found, in black: what lies outside it was
+  left out);
 - ``extraction.json``: the figures of :func:`inkmotion.tracing.trace_picture`.
 
 A corrected ``strokes.svg`` or ``strokes.gml`` is fitted like any recorded trace."""
@@ -79,8 +81,10 @@ def strokes_gml(traces: Traces, width: int, height: int) -> str:
             f"</header><drawing>{''.join(strokes)}</drawing></tag></gml>\n")
 
 
-def strokes_png(traces: Traces, grey: np.ndarray, path: Path) -> None:
-    """``strokes.png``: the picture (faded) with the strokes drawn over it."""
+def strokes_png(traces: Traces, grey: np.ndarray, path: Path,
+                page: np.ndarray | None = None) -> None:
+    """``strokes.png``: the picture (faded) with the strokes drawn over it, and the
+    outline of the ``page`` found in a photo (H, W) bool, if any, in black."""
     import cv2
 
     base = np.clip(0.55 + 0.45 * grey, 0, 1)
@@ -88,6 +92,10 @@ def strokes_png(traces: Traces, grey: np.ndarray, path: Path) -> None:
     n = len(traces.strokes)
     h, w = grey.shape
     thick = max(1, round(max(h, w) / 400))
+    if page is not None:
+        outline = cv2.findContours(page.astype(np.uint8), cv2.RETR_EXTERNAL,
+                                   cv2.CHAIN_APPROX_SIMPLE)[0]
+        cv2.drawContours(img, outline, -1, (0, 0, 0), thick, cv2.LINE_AA)
     size = max(6.0, 0.02 * max(h, w))
     for i, (s, rgb) in enumerate(zip(traces.strokes, stroke_colours(n), strict=True)):
         bgr = rgb[::-1]
@@ -104,12 +112,14 @@ def strokes_png(traces: Traces, grey: np.ndarray, path: Path) -> None:
     cv2.imwrite(str(path), img)
 
 
-def write_trace(traces: Traces, grey: np.ndarray, folder: Path) -> list[str]:
-    """Write the four files (module docstring) into ``folder``; their names."""
+def write_trace(traces: Traces, grey: np.ndarray, folder: Path,
+                page: np.ndarray | None = None) -> list[str]:
+    """Write the four files (module docstring) into ``folder``; their names. ``page``:
+    the page found in a photo, outlined in strokes.png."""
     h, w = grey.shape
     (folder / "strokes.svg").write_text(strokes_svg(traces, w, h))
     (folder / "strokes.gml").write_text(strokes_gml(traces, w, h))
-    strokes_png(traces, grey, folder / "strokes.png")
+    strokes_png(traces, grey, folder / "strokes.png", page)
     (folder / "extraction.json").write_text(json.dumps(traces.meta.get("extraction", {}),
                                                        indent=1) + "\n")
     return ["strokes.svg", "strokes.gml", "strokes.png", "extraction.json"]

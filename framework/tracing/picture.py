@@ -115,7 +115,8 @@ class Picture:
     (H, W) darkness against the flattened paper, [0, 1]; ``mask`` (H, W) bool, the ink
     after clean-up. ``scale`` is the decoded size over the file's (1 unless reduced);
     ``notes`` say what was done that a user should know (reduced, inverted);
-    ``ink_level`` the darkness of solid ink (module docstring, step 6)."""
+    ``ink_level`` the darkness of solid ink (module docstring, step 6); ``page`` the page
+    found in a photo (step 2)."""
 
     source: str
     grey: np.ndarray
@@ -125,6 +126,8 @@ class Picture:
     inverted: bool = False
     notes: list[str] = field(default_factory=list)
     ink_level: float = 1.0
+    #: the page found in a photo of one on a desk (H, W) bool, None where none was
+    page: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -372,7 +375,8 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
     # each ink pixel's distance to the paper, read by the line-art check and the ink level
     depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     _check_line_art(source, ink, mask, depth, inverted and not invert, ruling)
-    return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth))
+    return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth),
+                   page)
 
 
 def _drop_ruling_on(page: np.ndarray | None, mask: np.ndarray, ink: np.ndarray,
