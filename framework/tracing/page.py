@@ -19,7 +19,7 @@ shadow on a page is:
 - **a sheet**: convex (a sheet seen in perspective is a convex quadrilateral, its
   corners perhaps curled): its area at least :data:`CONVEX` of its convex hull;
 - **cornered**: two of its edges inside the picture, each at least :data:`EDGE_LENGTH`
-  of the picture long, turn by :data:`CORNER` or more (a corner of the sheet is in
+  of the picture's shorter side long, turn by :data:`CORNER` or more (a corner of the sheet is in
   view; a hard shadow across a page has one edge, straight or curved);
 - **edged**: where its outline lies inside the picture, the surround just beyond it
   (:data:`EDGE_REACH` of the picture's size out) is at most :data:`DARKER` of the
@@ -97,19 +97,21 @@ def find_page(grey: np.ndarray, widest: float) -> np.ndarray | None:
         return None
     if not _has_a_corner(hull, small.shape):
         return None
-    outline = np.zeros(small.shape, np.uint8)
-    cv2.fillPoly(outline, [hull.reshape(-1, 2)], 1)
-    beyond = cv2.distanceTransform(1 - outline, cv2.DIST_L2, 3)
+    sheet = np.zeros(small.shape, np.uint8)  # the hull, filled
+    cv2.fillPoly(sheet, [hull.reshape(-1, 2)], 1)
+    beyond = cv2.distanceTransform(1 - sheet, cv2.DIST_L2, 3)
     if float(beyond.max()) * f < widest:  # a stroke along the border, not a desk
         return None
     reach = max(2.0, EDGE_REACH * max(small.shape))
-    inside, outside = _either_side(hull, reach, small.shape)
-    if inside is None:
+    sides = _either_side(hull, reach, small.shape)
+    if sides is None:
         return None
-    if np.median(paper[outside]) > DARKER * np.median(paper[inside]):
+    inside, outside = sides
+    if np.median(paper[outside[0], outside[1]]) > DARKER * np.median(
+            paper[inside[0], inside[1]]):
         return None
     dark = 1.0 - calm / np.maximum(paper, 1e-3) > CROSSING_INK
-    if _crossings(dark, hull, reach, small.shape) > CROSSINGS:
+    if _crossings(dark, sheet, reach) > CROSSINGS:
         return None
     page = np.zeros((h, w), np.uint8)
     cv2.fillPoly(page, [np.round(hull.reshape(-1, 2) * f).astype(np.int32)], 1)
@@ -166,46 +168,44 @@ def _light_region(paper: np.ndarray) -> np.ndarray | None:
 
 
 def _either_side(hull: np.ndarray, reach: float, shape: tuple[int, int]
-                 ) -> tuple[np.ndarray | None, np.ndarray]:
-    """The (row, column) places ``reach`` px inside and outside the outline ``hull``
-    (convex, from :func:`cv2.convexHull`), one pair a pixel along it, where the outside
-    place is in the picture (the page's edges on the picture's border have no surround
-    to look at); (None, ...) when fewer than a tenth of the outline has one."""
-    inside, outside, total = [], [], 0
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The places (2, K) of rows and columns ``reach`` px inside and outside the outline
+    ``hull`` (convex, from :func:`cv2.convexHull`), a pair a pixel along it, where both
+    lie in the picture (the page's edges on the picture's border have no surround to
+    look at); None when fewer than a tenth of the outline has a pair."""
     pts = hull.reshape(-1, 2).astype(float)
-    centre = pts.mean(axis=0)
+    a, b = pts, np.roll(pts, -1, axis=0)  # each edge a → b
+    length = np.hypot(*(b - a).T)
+    normal = np.stack((b[:, 1] - a[:, 1], a[:, 0] - b[:, 0]), 1)
+    normal /= np.maximum(length, 1e-9)[:, None]
+    outward = np.einsum("ij,ij->i", normal, (a + b) / 2 - pts.mean(axis=0)) >= 0
+    normal = np.where(outward[:, None], normal, -normal)  # out of the page
+    counts = length.astype(int)  # a place a pixel along each edge
+    edge = np.repeat(np.arange(len(pts)), counts)
+    if edge.size == 0:
+        return None
+    step = np.arange(edge.size) - (np.cumsum(counts) - counts)[edge]
+    along = a[edge] + (step / counts[edge])[:, None] * (b - a)[edge]
+    out = np.round(along + reach * normal[edge]).astype(int)
+    inn = np.round(along - reach * normal[edge]).astype(int)
     h, w = shape
-    for a, b in zip(pts, np.roll(pts, -1, axis=0), strict=True):
-        length = float(np.hypot(*(b - a)))
-        if length < 1:
-            continue
-        normal = np.array([b[1] - a[1], a[0] - b[0]]) / length  # either way round ...
-        if np.dot(normal, (a + b) / 2 - centre) < 0:  # ... made to point out of the page
-            normal = -normal
-        for t in np.linspace(0, 1, int(length), endpoint=False):
-            p = a + t * (b - a)
-            total += 1
-            o, i = np.round(p + reach * normal), np.round(p - reach * normal)
-            if 0 <= o[0] < w and 0 <= o[1] < h and 0 <= i[0] < w and 0 <= i[1] < h:
-                inside.append((int(i[1]), int(i[0])))
-                outside.append((int(o[1]), int(o[0])))
-    if len(outside) < 0.1 * max(total, 1):
-        return None, np.zeros((2, 0), int)
-    return tuple(np.array(inside).T), tuple(np.array(outside).T)  # type: ignore[return-value]
+    seen = ((out[:, 0] >= 0) & (out[:, 0] < w) & (out[:, 1] >= 0) & (out[:, 1] < h)
+            & (inn[:, 0] >= 0) & (inn[:, 0] < w) & (inn[:, 1] >= 0) & (inn[:, 1] < h))
+    if seen.sum() < 0.1 * edge.size:
+        return None
+    return inn[seen][:, ::-1].T, out[seen][:, ::-1].T
 
 
-def _crossings(dark: np.ndarray, hull: np.ndarray, reach: float,
-               shape: tuple[int, int]) -> int:
+def _crossings(dark: np.ndarray, sheet: np.ndarray, reach: float) -> int:
     """How many pieces of ink (``dark``, (H, W) bool) reach both ``reach`` px inside the
-    outline ``hull`` and ``reach`` px outside it: lines that run on across it."""
+    outline of ``sheet`` (H, W) uint8, the filled hull, and ``reach`` px outside it: lines
+    that run on across it."""
     import cv2
 
     r = max(1, int(round(reach)))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    page = np.zeros(shape, np.uint8)
-    cv2.fillPoly(page, [hull.reshape(-1, 2).astype(np.int32)], 1)
-    deep_in = cv2.erode(page, disc).astype(bool)
-    far_out = ~cv2.dilate(page, disc).astype(bool)
+    deep_in = cv2.erode(sheet, disc).astype(bool)
+    far_out = ~cv2.dilate(sheet, disc).astype(bool)
     _, labels = cv2.connectedComponents(dark.astype(np.uint8), connectivity=8)
     across = np.intersect1d(np.unique(labels[deep_in & dark]),
                             np.unique(labels[far_out & dark]))
