@@ -10,6 +10,8 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    converted, 16-bit and float greys scaled to [0, 1]; a photo whose EXIF
    orientation says it is stored turned or mirrored (a phone's portrait photo) is turned
    upright, as every viewer shows it, so its strokes run the way the user sees them.
+   Colour is read as luminance; where that shows no ink on the page (a yellow marker),
+   the picture is read again from each pixel's darkest colour channel (:data:`TONES`).
 2. **The page in a photo** of one lying on a desk (:mod:`inkmotion.tracing.page`): found,
    what lies round it is no ink (said in the notes), and the next steps look at the
    page alone (its tones for the polarity, its bounds for a ruling). Not looked for
@@ -18,8 +20,9 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    the side of it the page's extremes reach further into: its darkest and lightest
    :data:`TAIL` (a dim photo of black ink on grey paper is still dark ink; chalk on a
    blackboard is light ink). Where neither side is clearly further (too little ink to
-   tell), a page whose median grey is below ½ is light ink on dark paper. Light ink is
-   inverted (``invert=True`` forces it).
+   tell), a page whose median grey is below ½ is light ink on dark paper. The extremes
+   are read with the grain calmed (a dim photo's noise reaches above its paper as far
+   as below). Light ink is inverted (``invert=True`` forces it).
 4. **Flat paper**: uneven light and paper shade are divided out by an estimate of the
    paper itself: the grey image, its grain calmed by a 5 × 5 median, closed (max then
    min) over a window wider than any stroke; the ink is then 1 − grey / paper, in
