@@ -577,15 +577,19 @@ def test_a_page_on_a_desk_is_traced_without_the_desk(tmp_path: Path) -> None:
 
 
 def desk_photo(share: float, angle: float, desk: float = 0.3, seed: int = 0,
-               ruling: int = 0) -> np.ndarray:
+               ruling: int = 0, mat: int = 0) -> np.ndarray:
     """A phone photo (uint8) of a page with a drawing (two strokes and a ring), covering
     about ``share`` of the picture, turned ``angle`` degrees, on a desk ``desk`` as light
     as the page whose grain, noise and JPEG would be traced against its own tone; the
-    page ruled ``ruling`` px apart (0: plain)."""
+    page ruled ``ruling`` px apart (0: plain); the desk a cutting mat, its light grid
+    ``mat`` px apart (0: wood)."""
     h, w = 600, 800
     rng = np.random.default_rng(seed)
     grain = desk * (1 + 0.2 * np.sin(np.linspace(0, 60, w))[None, :] * np.sin(
         np.linspace(0, 7, h))[:, None]) + rng.normal(0, 0.02, (h, w))
+    if mat:  # a light grid, one of its lines along the picture's border
+        for at in range(0, max(h, w), mat):
+            grain[at:at + 3], grain[:, at:at + 3] = 0.8, 0.8
     sheet = np.full((h, w), 240, np.uint8)
     line(sheet, [(250, 250), (550, 260)], ink=30)
     line(sheet, [(400, 200), (420, 400)], ink=30)
@@ -605,13 +609,15 @@ def desk_photo(share: float, angle: float, desk: float = 0.3, seed: int = 0,
     return np.clip(img * 255, 0, 255).astype(np.uint8)
 
 
-@pytest.mark.parametrize("share, angle", [(0.8, 0.0), (0.55, 4.0), (0.3, -3.0)])
+@pytest.mark.parametrize("share, angle, mat", [(0.8, 0.0, 0), (0.55, 4.0, 0), (0.3, -3.0, 0),
+                                              (0.55, 2.0, 25)])
 def test_a_photo_of_a_page_on_a_desk_leaves_the_desk_out(tmp_path: Path, share: float,
-                                                         angle: float) -> None:
+                                                         angle: float, mat: int) -> None:
     """The desk round a photographed page is left out, and said: its grain was traced as
     hundreds of strokes, and where it filled most of the photo the page was read as light
-    ink on dark paper (refused as "too wide for line art")."""
-    path = save(tmp_path, desk_photo(share, angle), "desk.jpg",
+    ink on dark paper (refused as "too wide for line art"). A cutting mat's light grid is
+    desk too (it made the mat look like paper and its squares like ink)."""
+    path = save(tmp_path, desk_photo(share, angle, mat=mat), "desk.jpg",
                 params=[cv2.IMWRITE_JPEG_QUALITY, 75])
     picture = read_picture(path)
     strokes = trace_picture(picture).strokes

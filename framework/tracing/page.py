@@ -6,9 +6,11 @@ as strokes; and where the desk fills much of the photo it can even make the page
 like light ink on dark paper. So before anything else the page is looked for, and only
 what lies on it is ink.
 
-The page is the largest light region of the picture's *paper* (the grey, its strokes
-removed by a closing over a window wider than any stroke, the picture carried on past
-its border so that a strip of desk along it stays; at most :data:`WORK_SIDE` px across),
+The page is the largest light region of the picture's *paper* (the grey, thin light
+lines such as a cutting mat's grid taken out by a small opening (:data:`THIN_LIGHT`),
+its strokes removed by a closing over a window wider than any stroke, the picture
+carried on past its border so that a strip of desk along it stays; at most
+:data:`WORK_SIDE` px across),
 together with the light regions at least :data:`TOGETHER` as large (an open notebook's
 two pages, apart across the gutter's shadow), when it is what no drawing, light or
 shadow on a page is:
@@ -42,6 +44,9 @@ import numpy as np
 
 #: the page is looked for at this size (px, the longer side) at most
 WORK_SIDE = 512
+#: light lines on the desk up to this wide (px at the working size) are no page: a
+#: cutting mat's grid, a table's seams (the gaps between a drawing's strokes are wider)
+THIN_LIGHT = 7
 #: the page covers at least this share of the picture ...
 LEAST_AREA = 0.2
 #: ... and leaves at least this share of it around the page
@@ -79,9 +84,12 @@ def find_page(grey: np.ndarray, widest: float) -> np.ndarray | None:
                        interpolation=cv2.INTER_AREA) if f > 1 else grey
     k = (int(2.4 * widest / f) + 3) | 1  # wider than any stroke, as the paper estimate's
     calm = cv2.medianBlur(small, 5)
-    # the picture carried on outward past its border: a strip of desk along it is then
-    # no narrow dark stroke for the closing to fill
-    wide = cv2.copyMakeBorder(calm, k, k, k, k, cv2.BORDER_REPLICATE)
+    # a small opening takes thin light lines (a cutting mat's grid) out of the desk; then
+    # the picture is carried on outward past its border, so that a strip of desk along
+    # it is no narrow dark stroke for the closing to fill
+    thin = cv2.getStructuringElement(cv2.MORPH_RECT, (THIN_LIGHT, THIN_LIGHT))
+    wide = cv2.copyMakeBorder(cv2.morphologyEx(calm, cv2.MORPH_OPEN, thin), k, k, k, k,
+                              cv2.BORDER_REPLICATE)
     paper = cv2.morphologyEx(wide, cv2.MORPH_CLOSE,
                              cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))[k:-k, k:-k]
     region = _light_region(paper)
