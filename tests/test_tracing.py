@@ -667,6 +667,19 @@ def test_both_pages_of_an_open_notebook_are_the_page(tmp_path: Path) -> None:
     assert sum(x < 340 for x in xs) == 2 and sum(x > 360 for x in xs) == 2, xs
 
 
+@pytest.mark.parametrize("invert", [False, True])
+def test_a_black_page_on_a_light_desk_leaves_the_desk_out(tmp_path: Path,
+                                                          invert: bool) -> None:
+    """White ink on black paper, photographed on a lighter desk: the light ink is found
+    (or said with ``--invert``) and the dark page is looked for in the inverted picture,
+    where it is a light page on a dark desk."""
+    path = save(tmp_path, 255 - desk_photo(0.5, 3.0), "black.jpg",
+                params=[cv2.IMWRITE_JPEG_QUALITY, 80])
+    picture = read_picture(path, invert=invert)
+    assert picture.inverted and [n for n in picture.notes if "page was found" in n]
+    assert len(trace_picture(picture).strokes) == 3
+
+
 def test_a_photographed_ruled_page_loses_its_ruling_too(tmp_path: Path) -> None:
     """The ruled lines of a page on a desk run from edge to edge of the page, not of the
     photo: they are looked for within the page."""

@@ -14,8 +14,9 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    the picture is read again from each pixel's darkest colour channel (:data:`TONES`).
 2. **The page in a photo** of one lying on a desk (:mod:`inkmotion.tracing.page`): found,
    what lies round it is no ink (said in the notes), and the next steps look at the
-   page alone (its tones for the polarity, its bounds for a ruling). Not looked for
-   with ``invert``, nor kept where the page's own tones read as light ink.
+   page alone (its tones for the polarity, its bounds for a ruling): a light page with
+   dark ink on it, or a dark page on a lighter desk with light ink on it (white ink on
+   black paper: a light page in the inverted picture).
 3. **Polarity**: the paper is what most of the page is (its median grey), and the ink is
    the side of it the page's extremes reach further into: its darkest and lightest
    :data:`TAIL` (a dim photo of black ink on grey paper is still dark ink; chalk on a
@@ -346,10 +347,7 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
                 invert: bool) -> Picture:
     """Steps 2–6 of the module docstring on a decoded ``grey`` picture."""
     notes = list(notes)
-    page = None if invert else find_page(grey, widest_stroke(grey.shape))
-    inverted = invert or light_ink(grey, page)
-    if inverted and page is not None:  # not a light page: light ink on the dark part
-        page, inverted = None, light_ink(grey)
+    page, inverted = _page_and_polarity(grey, invert)
     if inverted:
         grey = 1.0 - grey
         if not invert:
@@ -380,6 +378,22 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
     _check_line_art(source, ink, mask, depth, inverted and not invert, ruling)
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth),
                    page)
+
+
+def _page_and_polarity(grey: np.ndarray, invert: bool) -> tuple[np.ndarray | None, bool]:
+    """The page found in a photo of one on a desk (None where none is) and whether its ink
+    is light (module docstring, steps 2 and 3): a light page with dark ink on it, or a
+    dark page on a lighter desk (white ink on black paper: a light page in the inverted
+    picture) with light ink on it; else the whole picture's polarity. ``invert`` forces
+    light ink."""
+    widest = widest_stroke(grey.shape)
+    light_page = None if invert else find_page(grey, widest)
+    if light_page is not None and not light_ink(grey, light_page):
+        return light_page, False
+    dark_page = find_page(1.0 - grey, widest)
+    if dark_page is not None and (invert or light_ink(grey, dark_page)):
+        return dark_page, True
+    return None, invert or light_ink(grey)
 
 
 def _drop_ruling_on(page: np.ndarray | None, mask: np.ndarray, ink: np.ndarray,
