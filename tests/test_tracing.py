@@ -833,6 +833,7 @@ def png_claiming(w: int, h: int) -> bytes:
     ("empty", "the file is empty"),
     ("folder", "is a folder, not a file"),
     ("mostly-desk", "crop the picture to the paper"),
+    ("desk-along-an-edge", "right edge; if that is a desk or a shadow beside the page"),
     ("truncated-png", "cannot be decoded"),
     ("truncated-jpeg", "cannot be decoded"),
     ("huge", "megapixels"),
@@ -876,6 +877,12 @@ def test_bad_pictures_are_refused_in_one_sentence(tmp_path: Path, case: str,
         img = np.full((300, 400), 60, np.uint8)
         img[115:-115, 140:-140] = 235
         cv2.imwrite(str(path), line(img, [(170, 150), (230, 150)], width=4))
+    elif case == "desk-along-an-edge":  # a page photographed with the desk beside it
+        img = line(page((1200, 900), 230), [(100, 400), (900, 500)]).astype(np.float32)
+        yy, xx = np.mgrid[0:900, 0:120]
+        img[:, -120:] = 70 * (1 + 0.25 * np.sin(yy / 6.0 + xx / 40.0))  # its grain
+        cv2.imwrite(str(path), np.clip(img + rng.normal(0, 4, img.shape), 0, 255).astype(
+            np.uint8))
     elif case == "truncated-png":
         cv2.imwrite(str(path), drawing())
         path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])

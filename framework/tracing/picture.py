@@ -580,17 +580,46 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
                          "drawing; crop it to the drawing, or pass --invert if the paper is "
                          "the dark part.")
     calm = cv2.GaussianBlur(ink, (0, 0), DENOISE)  # grain is no half-tone
-    mid = calm > MIN_CONTRAST  # tones between paper and ink, the paper's ruled lines aside
-    mid = float((mid & ~mask & (True if ruling is None else ~ruling)).mean())
+    band = widest_stroke(mask.shape)
+    tones = (calm > MIN_CONTRAST) & ~mask  # between paper and ink, ruled lines aside
+    if ruling is not None:
+        tones &= ~ruling
+    mid = float(tones.mean())
     if mid > max(0.05, 2.0 * share):
-        raise InputError(f"{source}: {100 * mid:.0f} % of the page is in half-tones, not "
-                         "a line drawing (a photo is drawn by the 'abstract' kind); use a "
-                         "picture of line art on plain paper.")
+        found = f"{100 * mid:.0f} % of the page is in half-tones"
+        raise InputError(_beside_the_page(source, found, tones, band) or (
+            f"{source}: {found}, not a line drawing (a photo is drawn by the 'abstract' "
+            "kind); use a picture of line art on plain paper."))
     widest = 2.0 * float(np.percentile(depth[mask], 95))
-    if widest > widest_stroke(mask.shape):
+    if widest > band:
         read = ("light areas (read as light ink on dark paper, as most of it is dark: if "
                 "the ink is dark, crop the picture to the paper it is on)"
                 if found_light else "dark areas")
-        raise InputError(f"{source}: the {read} are {widest:.0f} px wide, too wide for "
-                         "line art on a page this size, so this is not a line drawing; use "
-                         "a picture of line art (a photo is drawn by the 'abstract' kind).")
+        found = f"the {read} are {widest:.0f} px wide, too wide for line art"
+        raise InputError((not found_light and _beside_the_page(
+            source, found, depth > band / 2, band)) or (
+            f"{source}: {found} on a page this size, so this is not a line drawing; use a "
+            "picture of line art (a photo is drawn by the 'abstract' kind)."))
+
+
+def _beside_the_page(source: str, found: str, where: np.ndarray, band: float) -> str:
+    """The refusal of ``source`` for what was ``found`` where ``where`` (H, W) bool
+    says, when that lies along one or two sides of the picture (within ``band`` px of
+    each, over half its length; most of it there): it may be a desk or a shadow beside
+    the page, to be cropped away; else ""."""
+    import cv2
+
+    reach = max(1, int(round(band)))
+    along = {"top": where[:reach].any(axis=0), "bottom": where[-reach:].any(axis=0),
+             "left": where[:, :reach].any(axis=1), "right": where[:, -reach:].any(axis=1)}
+    sides = [side for side, seen in along.items() if seen.mean() > 0.5]
+    if not sides or len(sides) > 2:
+        return ""  # none, or all round: a photo, not a page beside a desk
+    _, pieces = cv2.connectedComponents(where.astype(np.uint8), connectivity=8)
+    edge = np.zeros_like(where)
+    edge[:reach], edge[-reach:], edge[:, :reach], edge[:, -reach:] = True, True, True, True
+    touching = np.unique(pieces[edge & where])
+    if np.isin(pieces, touching[touching > 0]).sum() < 0.6 * where.sum():
+        return ""  # most of it stands away from the sides: not beside the page
+    return (f"{source}: {found}, mostly along the picture's {' and '.join(sides)} edge; if "
+            "that is a desk or a shadow beside the page, crop the picture to the page.")
