@@ -386,14 +386,19 @@ def _page_and_polarity(grey: np.ndarray, invert: bool) -> tuple[np.ndarray | Non
     dark page on a lighter desk (white ink on black paper: a light page in the inverted
     picture) with light ink on it; else the whole picture's polarity. ``invert`` forces
     light ink."""
+    import cv2
+
     widest = widest_stroke(grey.shape)
-    light_page = None if invert else find_page(grey, widest)
-    if light_page is not None and not light_ink(grey, light_page):
+    if invert:
+        return find_page(1.0 - grey, widest), True
+    calm = cv2.GaussianBlur(grey, (0, 0), DENOISE)  # calmed once for each polarity read
+    light_page = find_page(grey, widest)
+    if light_page is not None and not light_ink(calm, light_page):
         return light_page, False
     dark_page = find_page(1.0 - grey, widest)
-    if dark_page is not None and (invert or light_ink(grey, dark_page)):
+    if dark_page is not None and light_ink(calm, dark_page):
         return dark_page, True
-    return None, invert or light_ink(grey)
+    return None, light_ink(calm)
 
 
 def _drop_ruling_on(page: np.ndarray | None, mask: np.ndarray, ink: np.ndarray,
@@ -419,16 +424,14 @@ def widest_stroke(shape: tuple[int, int]) -> float:
     return max(MAX_WIDTH_SHARE * max(shape), LEAST_WIDEST)
 
 
-def light_ink(grey: np.ndarray, page: np.ndarray | None = None) -> bool:
-    """Whether the ink of the picture ``grey`` (H, W), on its ``page`` (H, W) bool where
-    one was found, is lighter than its paper (module docstring, step 3): the side of the
-    median its extremes reach further into, when that side reaches at least
-    :data:`MIN_CONTRAST` and twice as far as the other; else whether the median is below
-    ½. The extremes are read with the grain calmed (:data:`DENOISE`): a dim photo's noise
-    reaches as far above its paper as below, and would hide which side its ink is on."""
-    import cv2
-
-    calm = cv2.GaussianBlur(grey, (0, 0), DENOISE)
+def light_ink(calm: np.ndarray, page: np.ndarray | None = None) -> bool:
+    """Whether the ink of a picture, on its ``page`` (H, W) bool where one was found, is
+    lighter than its paper (module docstring, step 3): the side of the median its
+    extremes reach further into, when that side reaches at least :data:`MIN_CONTRAST` and
+    twice as far as the other; else whether the median is below ½. ``calm`` (H, W) is the
+    picture's grey with its grain calmed (Gaussian, σ :data:`DENOISE`): a dim photo's
+    noise reaches as far above its paper as below, and would hide which side its ink is
+    on."""
     tones = calm if page is None else calm[page]
     low, paper, high = np.percentile(tones, [100 * TAIL, 50, 100 * (1 - TAIL)])
     dark, light = paper - low, high - paper
