@@ -543,6 +543,65 @@ def test_a_ruled_pages_margin_line_is_left_out(tmp_path: Path) -> None:
     assert len(strokes) == len(alone) == 2, [s[[0, -1], :2].round().tolist() for s in strokes]
 
 
+def _on_paper(tmp_path: Path, paper: str, strokes: list[list[tuple[float, float]]]
+              ) -> tuple[list[np.ndarray], list[str]]:
+    """The strokes traced from the picture benchmark's pencil sketch of ``strokes`` (px of
+    a 1000-px canvas) on its ``paper``, and the picture's notes."""
+    from inkmotion.benchmarks.pictures import PAPERS, render_scan
+
+    scan = next(s for s in PAPERS if s.name == paper)
+    render_scan([np.array(s, float) for s in strokes], scan, tmp_path / "p.jpg")
+    picture = read_picture(str(tmp_path / "p.jpg"))
+    return trace_picture(picture).strokes, picture.notes
+
+
+def test_a_stroke_down_a_ruled_page_is_no_margin_line(tmp_path: Path) -> None:
+    """A kana's long straight stroke down a notebook's ruled page, leaning 2°, as even as
+    a printed line but thicker than the ruling's and stopping short of the page's edges,
+    is drawn, not a margin: it was left out, and the kana traced in pieces."""
+    strokes, notes = _on_paper(tmp_path, "lined-1000-w8", [
+        [(335, 89), (300, 920)], [(100, 400), (250, 300), (400, 500)]])
+    assert [n for n in notes if "ruled lines across" in n], notes
+    assert not [n for n in notes if "margin" in n], notes
+    assert len(strokes) == 2, [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert max(float(np.ptp(s[:, 1])) for s in strokes) > 800
+
+
+@pytest.mark.parametrize(("ends", "width"), [(((300, 0), (306, 599)), 9),
+                                             (((300, 25), (304, 580)), 3)],
+                         ids=["thicker than the ruling", "stopping short of the edges"])
+def test_a_straight_stroke_down_a_ruled_page_is_drawn(tmp_path: Path, ends: tuple,
+                                                      width: int) -> None:
+    """A margin line is printed as the ruling is: from edge to edge of the page and about
+    as thin as its lines. A straight, even stroke down the page that is three times as
+    thick (even from edge to edge), or stops 4 % short of the edges (even as thin), is
+    the drawing's, and is traced."""
+    img = page((600, 600))
+    img = line(img, list(ends), width=width, ink=60)
+    img = line(img, [(100, 200), (250, 260), (420, 180)], width=width, ink=60)
+    picture = read_picture(save(tmp_path, ruled(img, 30), name="p.jpg",
+                                params=[cv2.IMWRITE_JPEG_QUALITY, 80]))
+    assert not [n for n in picture.notes if "margin" in n], picture.notes
+    strokes = trace_picture(picture).strokes
+    assert len(strokes) == 2 and max(float(np.ptp(s[:, 1])) for s in strokes) > 500
+
+
+def test_a_stroke_along_a_grid_line_ends_where_its_ink_ends(tmp_path: Path) -> None:
+    """A stroke drawn along one of squared paper's lines, covering most of it: the line
+    is still the paper's beyond the stroke's ends (it was traced on, as the stroke, to
+    the picture's edge); and a line that leaves the picture through its side, askew, is
+    the paper's up to the edge (its last sliver was a stroke)."""
+    strokes, notes = _on_paper(tmp_path, "squared-1000-w8", [
+        [(500, 110), (500, 820)], [(200, 400), (300, 600)]])
+    assert [n for n in notes if "ruled lines down" in n], notes
+    ends = [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert len(strokes) <= 3 and max(float(np.ptp(s[:, 1])) for s in strokes) < 730, ends
+    strokes, _ = _on_paper(tmp_path, "squared-1000-w8", [
+        [(500, 80), (400, 300), (80, 820)], [(400, 450), (920, 840)]])
+    ends = [s[[0, -1], :2].round().tolist() for s in strokes]
+    assert len(strokes) == 2, ends
+
+
 def test_a_drawing_of_ruled_lines_is_no_ruling(tmp_path: Path) -> None:
     """A frame with a line across its middle, drawn as an app draws it: three straight
     lines from edge to edge, evenly apart, as thick all along. Taken for a ruling, the

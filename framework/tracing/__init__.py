@@ -27,7 +27,7 @@ def trace_picture(picture: Picture, varying_width: bool = False) -> Traces:
     from inkmotion.tracing.strokes import stroke_graph
 
     start = time.perf_counter()
-    graph = stroke_graph(picture.mask)
+    graph = stroke_graph(picture.mask, picture.ruling)
     if not graph.strokes:
         raise InputError(f"{picture.source}: no stroke could be traced in the ink; check that "
                          "the picture is a line drawing.")

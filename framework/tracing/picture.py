@@ -120,7 +120,8 @@ class Picture:
     after clean-up. ``scale`` is the decoded size over the file's (1 unless reduced);
     ``notes`` say what was done that a user should know (reduced, inverted);
     ``ink_level`` the darkness of solid ink (module docstring, step 6); ``page`` the page
-    found in a photo (step 2)."""
+    found in a photo (step 2); ``ruling`` the bands of the paper's ruled lines taken out
+    of the mask (step 5)."""
 
     source: str
     grey: np.ndarray
@@ -132,6 +133,8 @@ class Picture:
     ink_level: float = 1.0
     #: the page found in a photo of one on a desk (H, W) bool, None where none was
     page: np.ndarray | None = None
+    #: the bands of the paper's ruled lines (H, W) bool, None on plain paper
+    ruling: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -377,7 +380,7 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
     depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     _check_line_art(source, ink, mask, depth, inverted and not invert, ruling)
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth),
-                   page)
+                   page, ruling)
 
 
 def _page_and_polarity(grey: np.ndarray, invert: bool) -> tuple[np.ndarray | None, bool]:

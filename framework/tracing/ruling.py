@@ -57,9 +57,13 @@ VISIBLE_KNOWN = 0.1
 #: ... and it is printed: as thick, within a pixel, along this share of its ink
 UNIFORM = 0.5
 #: ... or, at a place of a ruling found, as thick as its lines along this share
-ALONG = 0.25
+ALONG = 0.1
 #: a page ruled one way has at most this many margin lines the other way
 MARGINS = 3
+#: a margin line is printed from edge to edge of the page: its ink begins and ends within
+#: this share of the picture's length from its edges (a drawn stroke down the page, as
+#: straight and as even, stops short of them)
+MARGIN_EDGE = 0.03
 #: a ruling has a line at this share of the places its spacing gives, at least
 FILLED = 0.8
 #: where the spacing puts a line, ink along this share of the picture shows one (a faint
@@ -94,39 +98,45 @@ def drop_ruling(mask: np.ndarray, ink: np.ndarray, level: float | None
     bands = np.zeros_like(mask)
     out, said, ruled = mask, [], set()
 
-    def take(turned: bool, find: Callable, what: str) -> None:
+    def take(turned: bool, find: Callable, what: str) -> float:
         nonlocal out
         # the lines taken out so far are no ink to look for the others in (a column
         # crosses every line of a ruling across: it would seem to run edge to edge)
         left = faint & ~(bands & ~out)
         lines, thick = find(left.T if turned else left)
         if not lines:
-            return
+            return 0.0
         views = (out.T, ink.T, bands.T) if turned else (out, ink, bands)
         kept = _without_lines(*views, lines, thick, level)
         out = kept.T if turned else kept
         ruled.add(turned)
         plural = "s" * (len(lines) > 1 and what == "margin line")
         said.append(f"{len(lines)} {what}{plural} {'down' if turned else 'across'}")
+        return thick
 
-    for turned in (False, True):  # rows, then columns (the transposed picture's rows)
-        take(turned, _ruled_lines, "ruled lines")
+    # rows, then columns (the transposed picture's rows)
+    thickness = max(take(turned, _ruled_lines, "ruled lines") for turned in (False, True))
     if not said:
         return mask, None, []
     for turned in {False, True} - ruled:  # a ruled page's margin runs across its ruling
-        take(turned, _margin_lines, "margin line")
+        take(turned, lambda faint: _margin_lines(faint, thickness), "margin line")
     if out.sum() < max(LEAST_LEFT_PX, LEAST_LEFT * mask.sum()):
         return mask, None, []  # the lines are the drawing: a frame, a table, a grid
     return np.ascontiguousarray(out), bands, said
 
 
-def _margin_lines(faint: np.ndarray) -> tuple[list[tuple[float, float, int, int]], float]:
-    """At most :data:`MARGINS` printed lines along the rows of ``faint`` (edge to edge, as
-    thick all along: :func:`_printed_line`), the margin of a page ruled the other way,
-    and their thickness; no lines where there are more (a drawing's, or a ruling's that
-    :func:`_ruled_lines` did not take)."""
+def _margin_lines(faint: np.ndarray, ruling: float
+                  ) -> tuple[list[tuple[float, float, int, int]], float]:
+    """At most :data:`MARGINS` printed lines along the rows of ``faint`` (as thick all
+    along: :func:`_printed_line`; from edge to edge, :data:`MARGIN_EDGE`; as the ruling's
+    lines, ``ruling`` px thick, are printed: a stroke far thicker is drawn), the margin of
+    a page ruled the other way, and their thickness; no lines where there are more (a
+    drawing's, or a ruling's that :func:`_ruled_lines` did not take)."""
+    w = faint.shape[1]
+    edge = MARGIN_EDGE * w
     printed = [p for p in (_printed_line(faint, m, lean) for m, lean in _long_lines(faint))
-               if p is not None]
+               if p is not None and p[2] <= edge and p[3] >= w - 1 - edge
+               and p[4] <= 2 * ruling + 1]
     if not printed or len(printed) > MARGINS:
         return [], 0.0
     return [p[:4] for p in printed], float(np.median([p[4] for p in printed]))
@@ -294,7 +304,9 @@ def _without_lines(mask: np.ndarray, ink: np.ndarray, in_band: np.ndarray,
     mine = np.zeros_like(mask)  # these lines' bands
     bands = []
     for slope, offset, first, last in lines:
-        xs = np.arange(max(first - w // 50, 0), min(last + w // 50, w - 1) + 1)
+        # the whole course: a printed line runs on to the picture's edges, and one leaving
+        # it through a side shows there as long as its band overlaps the picture
+        xs = np.arange(w)
         centre = np.rint(offset + slope * xs).astype(int)  # (n,)
         rows = centre[None, :] + np.arange(-half, half + 1)[:, None]  # (2·half + 1, n)
         ok = (rows >= 0) & (rows < h)

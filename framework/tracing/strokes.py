@@ -72,6 +72,9 @@ CROSSING_BEND = 30.0
 #: radius + 1 px (:func:`_reaches_out`)
 SPUR = 1.6
 REACH_OUT = 0.5
+#: a short branch whose tip's ink radius is at most this (px) and lies on a band of the
+#: paper's ruling is the line's burr beside a stroke (:func:`_drop_spurs`)
+BURR = 1.0
 #: branch ends at a junction that bend by less than this (degrees) continue each other
 STRAIGHT = 50.0
 #: ends left over at a junction are joined while they bend by less than this (degrees): an
@@ -143,14 +146,17 @@ def radius_map(mask: np.ndarray) -> np.ndarray:
     return np.maximum(dist - 0.5, 0.5).astype(np.float64)
 
 
-def stroke_graph(mask: np.ndarray) -> StrokeGraph:
-    """The strokes of the ink ``mask`` (H, W) bool (module docstring)."""
+def stroke_graph(mask: np.ndarray, ruling: np.ndarray | None = None) -> StrokeGraph:
+    """The strokes of the ink ``mask`` (H, W) bool (module docstring); ``ruling`` (H, W)
+    bool: the bands of the paper's ruled lines taken out of it, where a short, thin
+    branch is a burr of the line beside a stroke, however far it pokes out
+    (:func:`_drop_spurs`)."""
     from skimage.morphology import skeletonize
 
     radius = radius_map(mask)
     skeleton = skeletonize(mask)
     branches, nodes = _branches(skeleton, radius)
-    spurs = _drop_spurs(branches, nodes)
+    spurs = _drop_spurs(branches, nodes, ruling)
     _crossings(branches, nodes)
     _extend_tips(branches, nodes, mask, radius)
     _cusps(branches, nodes)
@@ -288,9 +294,18 @@ def _branches(skeleton: np.ndarray, radius: np.ndarray
     return branches, {k: n for k, n in nodes.items() if n.ends}
 
 
-def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
+def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node],
+                ruling: np.ndarray | None = None) -> int:
     """Drop junction-to-tip branches shorter than the junction's ink (step 2); how many
-    were dropped."""
+    were dropped. A short branch ending in a pixel or two of ink on a band of the paper's
+    ruling (``ruling``, or within a pixel of one) is dropped even where its ink reaches
+    out of the junction's: it is the line's burr beside a stroke, left where the
+    stroke's blur darkened the line, not a stroke's end (:func:`_burr`)."""
+    near_line = None
+    if ruling is not None:
+        import cv2
+
+        near_line = cv2.dilate(ruling.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
     dropped = 0
     for _ in range(3):  # a spur's removal may leave another behind it
         again = False
@@ -299,10 +314,10 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
                 continue
             a, b = (nodes[e] for e in br.ends)
             for tip, fork in ((a, b), (b, a)):
+                end = br.points[0] if tip is a else br.points[-1]
                 if tip.degree == 1 and fork.degree >= 3 and \
                         br.length < SPUR * fork.radius + 1.0 and \
-                        not _reaches_out(br.points[0] if tip is a else br.points[-1],
-                                         tip, fork) and \
+                        (not _reaches_out(end, tip, fork) or _burr(end, tip, near_line)) and \
                         not _narrow_fork(branches, fork, (k, 1 if tip is a else 0)):
                     br.kept = False
                     tip.ends.remove((k, 0 if tip is a else 1))
@@ -313,6 +328,17 @@ def _drop_spurs(branches: list[_Branch], nodes: dict[int, _Node]) -> int:
         if not again:
             break
     return dropped
+
+
+def _burr(end: np.ndarray, tip: _Node, near_line: np.ndarray | None) -> bool:
+    """Whether a branch's tip at ``end`` (x, y) is a ruled line's burr: a pixel or two of
+    ink (:data:`BURR` radius at most; a stroke's end is as wide as the stroke) lying on
+    ``near_line`` (H, W) bool, the ruling's bands grown by a pixel (False for None)."""
+    if near_line is None or tip.radius > BURR:
+        return False
+    h, w = near_line.shape
+    col, row = (int(np.clip(v, 0, n - 1)) for v, n in ((end[0], w), (end[1], h)))
+    return bool(near_line[row, col])
 
 
 def _reaches_out(end: np.ndarray, tip: _Node, fork: _Node) -> bool:
