@@ -16,12 +16,16 @@ word's upright stems may stand evenly apart, but not at every place of a spacing
 within :data:`TILT` of the picture's rows are found by a Hough transform limited to those
 angles (:func:`cv2.HoughLines`), then every place the spacing gives is looked at; the
 columns are the transposed picture's rows (a grid is both). On a page ruled one way, up
-to :data:`MARGINS` lines printed the other way (edge to edge, as thick all along) are
-its margin, taken out as well. Each way is looked at without the lines already taken
-out (a column crosses every line of a ruling across it).
+to :data:`MARGINS` lines printed the other way (from edge to edge of the page within
+:data:`MARGIN_EDGE`, as thick all along, and no more than twice as thick as the ruling's
+lines, as a ruled line is) are its margin, taken out as well: a drawn stroke down the
+page, however straight, stops short of its edges or is drawn with a wider pen. Each way
+is looked at without the lines already taken out (a column crosses every line of a
+ruling across it).
 
 Each ruled line is taken out of the mask over its band (the ruling's thickness, measured
-across its lines, plus a pixel each side), except where the drawing's ink crosses it: a
+across its lines, plus a pixel each side) along its whole course to the picture's edges
+(one leaving the picture askew shows a sliver there), except where the drawing's ink crosses it: a
 band pixel stays ink when the drawing's ink over the line would be ink without it, or
 when the drawing's ink lies just beyond the band on both sides of it (a stroke across
 the line, as faint as the line). What is kept in a band must run on across it, further
@@ -303,7 +307,7 @@ def _without_lines(mask: np.ndarray, ink: np.ndarray, in_band: np.ndarray,
     half = int(thick) // 2 + 1
     mine = np.zeros_like(mask)  # these lines' bands
     bands = []
-    for slope, offset, first, last in lines:
+    for slope, offset, _first, _last in lines:
         # the whole course: a printed line runs on to the picture's edges, and one leaving
         # it through a side shows there as long as its band overlaps the picture
         xs = np.arange(w)
