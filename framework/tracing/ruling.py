@@ -118,8 +118,8 @@ def drop_ruling(mask: np.ndarray, ink: np.ndarray, level: float | None
         said.append(f"{len(lines)} {what}{plural} {'down' if turned else 'across'}")
         return thick
 
-    # rows, then columns (the transposed picture's rows)
-    thickness = max(take(turned, _ruled_lines, "ruled lines") for turned in (False, True))
+    # rows, then columns (the transposed picture's rows); the ruling's lines' thickness
+    thickness = max([take(turned, _ruled_lines, "ruled lines") for turned in (False, True)])
     if not said:
         return mask, None, []
     for turned in {False, True} - ruled:  # a ruled page's margin runs across its ruling

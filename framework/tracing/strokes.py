@@ -11,8 +11,9 @@ formed, directed and ordered the way a hand draws them.
    (:data:`CROSSING_REACH`: a script l's loop); a branch from a junction to a tip
    shorter than :data:`SPUR` × the junction's radius (+1 px) is a spur of the ink's
    outline, not a stroke, and is dropped, unless its tip's ink reaches out of the
-   junction's (a stroke's end just past where thick strokes merge) or it is the point of
-   a cusp:
+   junction's (a stroke's end just past where thick strokes merge; not on ruled paper,
+   where a tip :data:`BURR` thin on a ruled line is the line's burr beside a stroke) or
+   it is the point of a cusp:
    where a branch from a tip meets a fork whose other two arms close in at an inner
    angle under :data:`CUSP`, it is drawn out and back, however short (a narrow V's arms
    merge in the ink near its point, so the skeleton forks well before the point). Every
