@@ -33,7 +33,9 @@ shadow on a page is:
 
 The page is then the convex hull of that region, drawn in the picture's own pixels and
 shrunk by the reach (the edge's blur and the sheet's own shadow), and everything outside
-it is paper. A light page only: chalk on a board, or ``--invert``, is not looked at.
+it is paper. A light page is looked for; a dark page on a lighter desk (white ink on
+black paper, or ``--invert``) is the light page of the inverted picture
+(:func:`inkmotion.tracing.picture.read_picture` looks for both).
 """
 
 from __future__ import annotations
