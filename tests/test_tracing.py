@@ -99,6 +99,51 @@ def test_a_loop_begins_at_its_top_and_runs_counter_clockwise(tmp_path: Path) -> 
     assert area < 0  # y down: negative shoelace area is counter-clockwise on the page
 
 
+def _shoelace(s: np.ndarray) -> float:
+    """Twice the signed area of ``s`` closed; y down: negative is counter-clockwise."""
+    x, y = s[:, 0], s[:, 1]
+    return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _arc(start: float, end: float, centre: tuple[float, float] = (200, 150),
+         r: float = 90) -> list[tuple[float, float]]:
+    """Points of a circle from ``start`` to ``end`` degrees (0 = right, 90 = down: y down)."""
+    t = np.radians(np.linspace(start, end, 90))
+    return [(centre[0] + r * math.cos(a), centre[1] + r * math.sin(a)) for a in t]
+
+
+@pytest.mark.parametrize("gap, clockwise", [
+    (-120, False),  # the gap at the top left: set off leftwards, counter-clockwise (an o)
+    (60, True),  # at the bottom right: set off leftwards, clockwise
+    (180, False),  # at the left side: counter-clockwise, as a closed loop is
+])
+def test_a_loop_drawn_with_a_gap_runs_the_way_a_hand_sets_off(tmp_path: Path, gap: int,
+                                                               clockwise: bool) -> None:
+    # a circle whose ends stop 14° short of each other: an open stroke, whose top end
+    # the rule for open strokes would begin at; drawn as a loop, it sets off leftwards
+    img = line(page(), _arc(gap + 7, gap + 353))
+    (loop,) = strokes_of(tmp_path, img)
+    assert np.hypot(*(loop[0, :2] - loop[-1, :2])) > 15  # the gap stays
+    assert (_shoelace(loop) > 0) == clockwise
+
+
+def test_only_a_round_stroke_with_its_ends_close_is_a_loop_with_a_gap() -> None:
+    from inkmotion.tracing.strokes import _loop_with_gap
+
+    def arc(gap: float) -> np.ndarray:
+        return np.array(_arc(gap / 2, 360 - gap / 2))
+
+    assert _loop_with_gap(arc(14))  # a circle 14° short
+    assert not _loop_with_gap(arc(60))  # a C: its ends too far apart
+    # a V as narrow as a loop's gap (arms of 200 px, 8° off its axis) encloses too
+    # little: an open stroke, begun where an open stroke is begun
+    a = np.linspace(0, 200, 50)[:, None] * [math.sin(math.radians(8)), math.cos(
+        math.radians(8))]
+    v = np.vstack((a[::-1] * [-1, 1], a[1:]))
+    assert np.hypot(*(v[0] - v[-1])) < 0.15 * 400
+    assert not _loop_with_gap(v)
+
+
 def _order_of(stroke: np.ndarray, *places: tuple[float, float]) -> list[int]:
     """The index of the stroke's point nearest each place (the order it passes them)."""
     return [int(np.argmin(np.hypot(*(stroke[:, :2] - np.asarray(p)).T))) for p in places]
