@@ -164,6 +164,28 @@ def test_a_missed_hook_gets_a_target_on_the_right_sub_movement() -> None:
     assert np.allclose(end, [100, 0], atol=0.5)  # the path still ends where it did
 
 
+def test_a_shortcut_across_bare_paper_is_a_miss_where_the_ink_is() -> None:
+    """The input runs out along y = 0, up and back along y = 30; the plan draws it all,
+    then strays back across to (100, 0). Every input point is on the fit, so only the
+    fit's own samples far from the ink (15 px at the cut's middle) say where it strays:
+    a miss at the ink nearest them, on the plan's path at the time it strays, and only
+    beyond ``astray``."""
+    out = np.column_stack((np.linspace(0, 100, 101), np.zeros(101)))
+    up = np.column_stack((np.full(31, 100.0), np.linspace(0, 30, 31)))
+    back = np.column_stack((np.linspace(100, 0, 101), np.full(101, 30.0)))
+    stroke = np.vstack((out, up, back))
+    plan = plan_through([[0, 0], [100, 0], [100, 30], [0, 30], [100, 0]])
+    assert worst_misses([stroke], [plan], above=3.0, separation=10.0, limit=3) == []
+    misses = worst_misses([stroke], [plan], above=3.0, separation=10.0, limit=3, astray=8.0)
+    assert misses and misses[0].distance == pytest.approx(15.0, abs=1.5)
+    q = misses[0].point
+    assert abs(q[1]) < 0.5 or abs(q[1] - 30) < 0.5  # on the ink
+    assert 20 < q[0] < 80  # beside the middle of the cut
+    assert dominant_move(plan, misses[0].time) == 3  # the cut's sub-movement
+    assert worst_misses([stroke], [plan], above=3.0, separation=10.0, limit=3,
+                        astray=16.0) == []
+
+
 def test_nothing_is_missed_by_a_plan_that_covers_the_input() -> None:
     plan = plan_through([[0, 0], [100, 0]])
     line = sample(plan).positions[:, :2]

@@ -13,7 +13,11 @@ Residual. The input strokes and the fitted trajectories are densified
 (:func:`inkmotion.geometry.chamfer.densify`); each input point's residual is its distance
 to the nearest fitted sample, d(a, B) of the Chamfer distance. Candidates are taken
 greedily: the worst input point, then the worst one more than ``separation`` px away from
-every point taken so far, while the residual exceeds ``above`` px.
+every point taken so far, while the residual exceeds ``above`` px. The other way round, a
+fitted sample farther than ``astray`` px (the goal's max distance) from every input point
+is a shortcut drawn across bare paper while other passes cover the ink it skipped (the
+input's residual does not see it); it is a candidate too, ranked by that distance: the
+input point nearest to it, to be passed at the sample's own time on its path.
 
 Insertion. For a candidate q the fit should pass q at a time t* on path p: half-way
 between the times at which it passes the nearest well-fitted input points before and
@@ -97,9 +101,12 @@ class FittedSamples:
 
 
 def worst_misses(strokes: list[np.ndarray], plans: list[MotorPlan], *, above: float,
-                 separation: float, limit: int) -> list[Miss]:
+                 separation: float, limit: int, astray: float = math.inf) -> list[Miss]:
     """At most ``limit`` input points farther than ``above`` px from the fit, worst first,
-    each more than ``separation`` px from those before it (module docstring)."""
+    each more than ``separation`` px from those before it (module docstring); and, among
+    them by distance, the fit's own samples farther than ``astray`` px from the input (a
+    shortcut drawn across bare paper while other passes cover the ink it skipped), each a
+    miss at the input point nearest to it, at the sample's path and time."""
     if limit <= 0:
         return []
     fitted = FittedSamples.of(plans)
@@ -108,16 +115,23 @@ def worst_misses(strokes: list[np.ndarray], plans: list[MotorPlan], *, above: fl
     stroke_of = np.concatenate([np.full(len(d), i) for i, d in enumerate(dense)])
     points = np.vstack(dense)  # (K, 2)
     distance, nearest = tree.query(points)
-    order = np.argsort(-distance)
+    candidates = [(float(distance[k]), int(k), -1) for k in np.flatnonzero(distance > above)]
+    if math.isfinite(astray):
+        away, ink = cKDTree(points).query(fitted.positions)
+        candidates += [(float(away[j]), int(ink[j]), int(j))
+                       for j in np.flatnonzero(away > astray)]
     taken: list[Miss] = []
-    for k in order:
-        if distance[k] <= above or len(taken) >= limit:
+    for d, k, j in sorted(candidates, key=lambda c: (-c[0], c[1], c[2])):
+        if len(taken) >= limit:
             break
         q = points[k]
         if any(np.hypot(*(q - t.point)) <= separation for t in taken):
             continue
-        path, time = _passage(k, stroke_of, distance, nearest, fitted, above)
-        taken.append(Miss(q, float(distance[k]), path, time))
+        if j < 0:
+            path, time = _passage(k, stroke_of, distance, nearest, fitted, above)
+        else:
+            path, time = int(fitted.path[j]), float(fitted.time[j])
+        taken.append(Miss(q, d, path, time))
     return taken
 
 
