@@ -38,6 +38,7 @@ across the stages (a progress bar of the whole fit).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Generator
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -79,6 +80,7 @@ class RefineSettings:
     protect_corners: bool = True  # merges keep the targets of the input's salient corners
     max_error: float = 2.0  # auto: the goal, max Chamfer px
     sparsity: str = "hand"  # default mode: a key of SPARSITY
+    strays: bool = True  # fitted samples beyond the goal's max distance are misses too
 
     @property
     def rule(self) -> Sparsity:
@@ -133,7 +135,8 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
          above: float, limit: int, size: float = 350.0,
          fewest: int = 0, shared_time: bool | None = None
          ) -> tuple[list[MotorPlan], int, int]:
-    """Insert at most ``limit`` targets at the worst misses above ``above`` px, then merge
+    """Insert at most ``limit`` targets at the worst misses above ``above`` px (and, with
+    ``s.strays``, where the fit strays beyond the goal's max distance from the ink), then merge
     pinned pairs (keeping the salient corners of the input on a ``size``-px canvas when
     ``s.protect_corners``, and at least ``fewest`` sub-movements in all); returns the
     plans, inserted and merged counts. ``shared_time`` (default: the sparsity rule's): a
@@ -145,7 +148,7 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     device, dtype = plans[0].points.device, plans[0].points.dtype
     cpu = [on_cpu(p) for p in plans]
     misses = worst_misses(strokes, cpu, above=above, separation=s.separation, limit=limit,
-                          astray=GOAL_MAX_PX * size / REFERENCE_SIZE)
+                          astray=GOAL_MAX_PX * size / REFERENCE_SIZE if s.strays else math.inf)
     shared = s.rule.shared_time if shared_time is None else shared_time
     cpu = insert_targets(cpu, misses, keep_time=shared,
                          sequential_above=GOAL_MAX_PX * size / REFERENCE_SIZE)

@@ -47,7 +47,8 @@ class FitParams(OptimisationParams):
     floor on some inputs. Each field's ``earlier`` holds the defaults of older spec
     versions (2: the authors' objective and no plan edits; 3: no trace term, every edit
     kept, merges blind to corners; 4: plan edits on a budget, no tolerance; 5: no weight
-    on the trace's worst misses; 6: 600 steps decaying to 0.1)."""
+    on the trace's worst misses; 6: 600 steps decaying to 0.1; 7: edits blind to where
+    the motion strays from the ink)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -83,6 +84,10 @@ class FitParams(OptimisationParams):
                              "trace term counts only distance beyond it, and the image loss "
                              "compares with the ink widened by it on both sides (0: as close "
                              "as it can).", minimum=0, maximum=20, earlier={4: 0.0})
+    strays: bool = param(True, "Plan edits also add a target where the motion strays more "
+                         "than 8 px (at 350 px) from any ink, a shortcut across bare paper "
+                         "that other passes hide, at the ink nearest it.",
+                         earlier={7: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -115,7 +120,8 @@ class FitParams(OptimisationParams):
         mode = self.targets if count is None else "fixed"
         return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
                               max_error=self.max_error, rollback=self.rollback,
-                              protect_corners=self.keep_corners, sparsity=self.sparsity)
+                              protect_corners=self.keep_corners, sparsity=self.sparsity,
+                              strays=self.strays)
 
 
 def target_count(targets: str) -> int | None:
