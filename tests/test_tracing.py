@@ -252,6 +252,24 @@ def test_a_narrow_v_is_drawn_down_to_its_point(tmp_path: Path) -> None:
     assert 259 < strokes[0][:, 1].max() < 261.5  # the point is at y 260: 260.25
 
 
+@pytest.mark.parametrize("rows", [
+    [(i, i + 1) for i in range(150)],  # 2 px a row: Zhang's thinning left 77 of 150
+    # 4 px a row with the ends of a ray in a doodle of a sun (clean-350-w2), of which
+    # it left one pixel: the ray became a level dab across its blob
+    [(1, 2), (0, 3), (0, 4)] + [(i, i + 3) for i in range(2, 149)] + [(149, 151), (150, 150)],
+])
+def test_a_thin_line_at_45_degrees_is_traced_whole(tmp_path: Path,
+                                                   rows: list[tuple[int, int]]) -> None:
+    # a staircase one pixel further right on each row: a line 1.4–2.8 px wide at 45°,
+    # from which Zhang's thinning strips each row from both sides at once
+    img = page()
+    for i, (a, b) in enumerate(rows):
+        img[60 + i, 100 + a:100 + b + 1] = 30
+    (stroke,) = strokes_of(tmp_path, img)
+    assert np.allclose(stroke[0, :2], (101.5, 61.5), atol=3)
+    assert np.allclose(stroke[-1, :2], (250.5, 209.5), atol=3)
+
+
 @pytest.mark.parametrize("width", [3, 9])
 def test_a_stroke_ends_where_its_ink_ends_less_its_radius(tmp_path: Path, width: int) -> None:
     # thinning stops short of a round cap's centre (by 2.5 px at 9 px wide: 62.5, 337.5);

@@ -1,10 +1,12 @@
 """Strokes of a line drawing from its ink mask: centrelines, a stroke graph, and strokes
 formed, directed and ordered the way a hand draws them.
 
-1. **Centrelines**: the mask's skeleton (:func:`skimage.morphology.skeletonize`) as a graph
-   of paths between tips and junctions (:func:`skeleton_paths`: scikit-image's pixel graph,
-   split into paths as :class:`skan.Skeleton` splits it); the ink's radius along it is the
-   distance transform (OpenCV's, exact) less half a pixel.
+1. **Centrelines**: the mask's skeleton (:func:`skimage.morphology.skeletonize`; a piece
+   of ink its thinning erases, as Zhang's thinning erases a thin line at 45°, thinned
+   again by Lee's method, :func:`thinned`) as a graph of paths between tips and
+   junctions (:func:`skeleton_paths`: scikit-image's pixel graph, split into paths as
+   :class:`skan.Skeleton` splits it); the ink's radius along it is the distance transform
+   (OpenCV's, exact) less half a pixel.
 2. **Graph**: junction pixels joined by a path shorter than :data:`MERGE` ink radii are
    one junction (a crossing skeletonises into two forks a few pixels apart), and so are two
    forks further apart whose arms read as two lines crossing at a shallow angle
@@ -166,10 +168,8 @@ def stroke_graph(mask: np.ndarray, ruling: np.ndarray | None = None) -> StrokeGr
     bool: the bands of the paper's ruled lines taken out of it, where a short, thin
     branch is a burr of the line beside a stroke, however far it pokes out
     (:func:`_drop_spurs`)."""
-    from skimage.morphology import skeletonize
-
     radius = radius_map(mask)
-    skeleton = skeletonize(mask)
+    skeleton = thinned(mask, radius)
     branches, nodes = _branches(skeleton, radius)
     spurs = _drop_spurs(branches, nodes, ruling)
     _crossings(branches, nodes)
@@ -184,6 +184,47 @@ def stroke_graph(mask: np.ndarray, ruling: np.ndarray | None = None) -> StrokeGr
     junctions = sum(1 for n in nodes.values() if n.degree >= 3)
     tips = sum(1 for n in nodes.values() if n.degree == 1)
     return StrokeGraph(_ordered(strokes), junctions, tips, spurs, loops, len(dots))
+
+
+#: a piece of ink whose skeleton spans less than this share of the piece's extent (less
+#: its widest ink's diameter) was partly erased by the thinning (:func:`thinned`)
+ERASED = 0.8
+
+
+def thinned(mask: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """The skeleton (H, W) bool of the ink ``mask``: scikit-image's default thinning
+    (Zhang's), except for a piece of ink (8-connected) whose skeleton spans, along the
+    piece's longer side, less than :data:`ERASED` of the piece's extent less its widest
+    ink's diameter (``radius``: :func:`radius_map`): a thin line at 45°, one of whose
+    staircase rows Zhang's two sub-iterations strip from both sides at once, loses half
+    or all of its skeleton. Such a piece is thinned again by Lee's method."""
+    import cv2
+    from skimage.morphology import skeletonize
+
+    skeleton = skeletonize(mask)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
+    if count < 2:
+        return skeleton
+    widest = np.zeros(count)
+    np.maximum.at(widest, labels[mask], radius[mask])
+    rows, cols = np.nonzero(skeleton)
+    of = labels[rows, cols]
+    low = np.full((count, 2), np.inf)
+    high = np.full((count, 2), -np.inf)
+    np.minimum.at(low, of, np.column_stack((cols, rows)))
+    np.maximum.at(high, of, np.column_stack((cols, rows)))
+    spans = np.where(np.isfinite(low), high - low + 1, 0.0)  # (count, 2): x, y
+    extent = stats[:, [cv2.CC_STAT_WIDTH, cv2.CC_STAT_HEIGHT]].astype(float)
+    longer = np.argmax(extent, axis=1)
+    span = spans[np.arange(count), longer]
+    erased = span < ERASED * (extent[np.arange(count), longer] - 2 * (widest + 0.5))
+    erased[0] = False  # the paper
+    for label in np.flatnonzero(erased):
+        x, y, w, h = (int(v) for v in stats[label, :4])
+        piece = labels[y:y + h, x:x + w] == label
+        window = skeleton[y:y + h, x:x + w]
+        window[piece] = skeletonize(piece, method="lee")[piece]
+    return skeleton
 
 
 def skeleton_paths(skeleton: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
