@@ -147,11 +147,11 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
 
     device, dtype = plans[0].points.device, plans[0].points.dtype
     cpu = [on_cpu(p) for p in plans]
+    goal = GOAL_MAX_PX * size / REFERENCE_SIZE
     misses = worst_misses(strokes, cpu, above=above, separation=s.separation, limit=limit,
-                          astray=GOAL_MAX_PX * size / REFERENCE_SIZE if s.strays else math.inf)
+                          astray=goal if s.strays else math.inf)
     shared = s.rule.shared_time if shared_time is None else shared_time
-    cpu = insert_targets(cpu, misses, keep_time=shared,
-                         sequential_above=GOAL_MAX_PX * size / REFERENCE_SIZE)
+    cpu = insert_targets(cpu, misses, keep_time=shared, sequential_above=goal)
     merged = 0
     if s.merge:
         room = sum(p.m for p in cpu) - fewest

@@ -865,11 +865,17 @@ def _dots(mask: np.ndarray, radius: np.ndarray, strokes: list[np.ndarray]
     return kept, dots
 
 
+def _shoelace(pts: np.ndarray) -> float:
+    """Twice the signed area of the polygon ``pts`` (k, 2+), closed from its last point to
+    its first; positive where it runs clockwise on the page (y down)."""
+    x, y = pts[:, 0], pts[:, 1]
+    return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
 def _clockwise(pts: np.ndarray) -> bool:
     """Whether the closed polygon ``pts`` (k, 2+) runs clockwise on the page (y down: a
     positive shoelace sum)."""
-    x, y = pts[:, 0], pts[:, 1]
-    return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) > 0
+    return _shoelace(pts) > 0
 
 
 def _directed(strokes: list[np.ndarray]) -> list[np.ndarray]:
@@ -904,8 +910,7 @@ def _loop_with_gap(pts: np.ndarray) -> bool:
     gap = float(np.hypot(*(xy[0] - xy[-1])))
     if len(xy) < 4 or length <= 0 or gap > GAP_SHARE * length:
         return False
-    x, y = xy[:, 0], xy[:, 1]
-    area = 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
+    area = 0.5 * abs(_shoelace(xy))
     return 4 * math.pi * area / (length + gap) ** 2 >= ROUND
 
 
