@@ -38,20 +38,27 @@ def fit_speed_peaks(drawing: Any, prominence: float = 0.05) -> int:
     return total
 
 
-def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
-    """Share of the overlaps Δt_i (i ≥ 2; Δt_1 is unused) within ``tolerance`` of a clamp
-    bound: a high share means the smoothing cost pins the plan, which then stops being a
-    model of movement (0 when no path has two sub-movements)."""
-    import torch
-
+def pinned_overlaps(plans: list[Any], tolerance: float = 1e-6) -> list[tuple[int, int, float]]:
+    """The overlaps Δt_i (i ≥ 2; Δt_1 is unused) within ``tolerance`` of a clamp bound, as
+    (path, sub-movement i, bound), both 1-based: where the smoothing cost pins the plan,
+    which there stops being a model of movement (two sub-movements on the 0.1 floor start
+    as nearly at once as the model allows: the plan has more targets than the motion has
+    movements)."""
     from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
 
-    overlaps = torch.cat([p.delta_t.detach().cpu().double()[1:] for p in plans])
-    if not len(overlaps):
-        return 0.0
-    lo, hi = DELTA_T_RANGE
-    clamped = ((overlaps - lo).abs() <= tolerance) | ((overlaps - hi).abs() <= tolerance)
-    return int(clamped.sum()) / len(overlaps)
+    pinned = []
+    for k, plan in enumerate(plans):
+        for i, dt in enumerate(plan.delta_t.detach().cpu().double().tolist()[1:], start=2):
+            pinned += [(k + 1, i, bound) for bound in DELTA_T_RANGE
+                       if abs(dt - bound) <= tolerance]
+    return pinned
+
+
+def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
+    """Share of the overlaps Δt_i (i ≥ 2) on a clamp bound (:func:`pinned_overlaps`); 0 when
+    no path has two sub-movements."""
+    overlaps = sum(max(0, len(p.delta_t) - 1) for p in plans)
+    return len(pinned_overlaps(plans, tolerance)) / overlaps if overlaps else 0.0
 
 
 def evaluation_ratios(drawing: Any) -> dict[str, float]:

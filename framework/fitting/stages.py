@@ -48,7 +48,7 @@ import numpy as np
 from inkmotion.events import StepState, wants
 from inkmotion.fitting.objective import Objective
 from inkmotion.fitting.optimise import FitResult, OptimiserSettings, Request, optimise
-from inkmotion.fitting.quality import GOAL_MAX_PX, REFERENCE_SIZE
+from inkmotion.fitting.quality import GOAL_MAX_PX, GOAL_MEAN_PX, REFERENCE_SIZE
 from inkmotion.fitting.refine import (
     SPARSITY,
     Sparsity,
@@ -81,6 +81,7 @@ class RefineSettings:
     max_error: float = 2.0  # auto: the goal, max Chamfer px
     sparsity: str = "hand"  # default mode: a key of SPARSITY
     strays: bool = True  # fitted samples beyond the goal's max distance are misses too
+    rescue_mean: bool = True  # an edit that brings the mean within its goal is kept too
 
     @property
     def rule(self) -> Sparsity:
@@ -220,12 +221,17 @@ class _Edits:
 
 
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
-           entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"]
-           ) -> tuple[FitResult, bool]:
+           entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"],
+           rescue_mean: bool = False, final: bool = True) -> tuple[FitResult, bool]:
     """Keep the stage's ``result`` if it was refitted from an edit that improved the
     criterion (:func:`inkmotion.fitting.quality.criterion`) or from no edit; otherwise roll
     back to the last kept result. Returns the result to go on from and whether it rolled
-    back; ``entry`` (the stage's record) says what was decided and why."""
+    back; ``entry`` (the stage's record) says what was decided and why. An edit that
+    improves the criterion by less than its targets must gain is kept all the same when
+    it *rescues* the fit: brings the worst miss (or, with ``rescue_mean``, the mean
+    distance, when rolling back would end the edits: at the ``final`` stage, or with no
+    other way of editing left) from above its goal to the rule's ``rescue_margin`` below
+    it."""
     from inkmotion.fitting.quality import criterion
 
     if edits.pending is None or edits.kept is None or edits.quality is None:
@@ -236,19 +242,30 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     entry["edit"] = dict(edits.pending)
     entry["criterion_before"], entry["criterion_after"] = before, after
     needed = rule.gain_per_target * edits.pending.get("inserted", 0)
-    goal = GOAL_MAX_PX * size / REFERENCE_SIZE
-    # a poor fit made good: the worst miss, a feature a person sees, is now drawn within
-    # the goal (by a margin round-off cannot cross), whatever the targets cost
+    scale = size / REFERENCE_SIZE
     gained = after <= before - needed - rule.margin
-    rescued = (rule.rescue_margin > 0 and edits.quality[1] > goal
-               and quality[1] <= goal * (1 - rule.rescue_margin) and after < before)
+    # a poor fit made good: the worst miss, a feature a person sees, is now drawn within
+    # the goal (by a margin round-off cannot cross), whatever the targets cost; the same
+    # for the mean distance, the other goal, with rescue_mean, as a last resort: only when
+    # a roll-back would end the edits (another way of editing, which may gain its full
+    # bar, is tried first)
+    goals = [("worst miss", 1, GOAL_MAX_PX * scale)]  # (name, its index in quality, goal)
+    retry = edits.pending.get("merged", 0) > 0 or (rule.retry_sequential
+                                                   and not edits.sequential)
+    if rescue_mean and (final or not retry):
+        goals.append(("mean distance", 0, GOAL_MEAN_PX * scale))
+    met = [(name, goal) for name, k, goal in goals
+           if rule.rescue_margin > 0 and edits.quality[k] > goal
+           and quality[k] <= goal * (1 - rule.rescue_margin)]
+    rescued = bool(met) and after < before
     if gained or rescued:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
                                 f"{edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
                                 f"{quality[0]:.2f}/{quality[1]:.1f} px)"
                                 + ("" if gained else
-                                   f", the worst miss now within the {goal:.1f}-px goal"))
+                                   f", the {met[0][0]} now within the {met[0][1]:.1f}-px "
+                                   "goal"))
         edits.kept, edits.quality = result, quality
         return result, False
     entry["edit"]["kept"] = False
@@ -422,7 +439,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
         record.append(entry)
         if rollback:
-            result, rolled = _judge(edits, result, (mean, worst), size, entry, refine.rule)
+            result, rolled = _judge(edits, result, (mean, worst), size, entry, refine.rule,
+                                    refine.rescue_mean, last)
             if rolled:
                 added -= edits.pending["inserted"] if edits.pending else 0
         if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):

@@ -48,7 +48,8 @@ class FitParams(OptimisationParams):
     versions (2: the authors' objective and no plan edits; 3: no trace term, every edit
     kept, merges blind to corners; 4: plan edits on a budget, no tolerance; 5: no weight
     on the trace's worst misses; 6: 600 steps decaying to 0.1; 7: edits blind to where
-    the motion strays from the ink)."""
+    the motion strays from the ink; 8: only a worst miss brought within its goal keeps an
+    edit that gains less than its targets must)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -88,6 +89,10 @@ class FitParams(OptimisationParams):
                          "than 8 px (at 350 px) from any ink, a shortcut across bare paper "
                          "that other passes hide, at the ink nearest it.",
                          earlier={7: False})
+    rescue_mean: bool = param(True, "An edit whose refit brings the mean distance from above "
+                              "its 0.6-px goal (at 350 px) to within it is kept whatever its "
+                              "new targets gain each, as one that brings the worst miss "
+                              "within 8 px is.", earlier={8: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -121,7 +126,7 @@ class FitParams(OptimisationParams):
         return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
                               max_error=self.max_error, rollback=self.rollback,
                               protect_corners=self.keep_corners, sparsity=self.sparsity,
-                              strays=self.strays)
+                              strays=self.strays, rescue_mean=self.rescue_mean)
 
 
 def target_count(targets: str) -> int | None:
@@ -332,7 +337,11 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
     """The fit's artifacts (from CPU copies of the plans) and its report."""
     import json
 
-    from inkmotion.evaluation.fit_motion import delta_t_at_clamp, fit_speed_peaks
+    from inkmotion.evaluation.fit_motion import (
+        delta_t_at_clamp,
+        fit_speed_peaks,
+        pinned_overlaps,
+    )
     from inkmotion.fitting.quality import chamfer_of
     from inkmotion.kinds.optimisation import plan_report, write_plan_artifacts
     from inkmotion.outputs import write_overlay
@@ -359,6 +368,11 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
                   speed_peaks=metrics["fit_speed_peaks"], stages=staged.stages)
     report.update(quality_verdict(traces, plans, size, chamfer_max, job.params))
     metrics["quality"] = report["quality"]
+    pinned = pinned_overlaps(plans)
+    report["pinned_overlaps"] = [{"path": k, "move": i, "bound": b} for k, i, b in pinned]
+    if pinned:
+        report["warnings"] = [*report.get("warnings", []), pinned_warning(pinned, plans,
+                                                                    job.params)]
     recorded = _recorded_peaks(job, drawing)
     if recorded is not None:
         report["recorded"] = recorded
@@ -402,6 +416,32 @@ def quality_verdict(traces: Any, plans: list, size: tuple[float, float], chamfer
     return {"quality": "poor", "warnings": [warning],
             "quality_figures": {"worst_stroke": miss.stroke, "worst_point_px": [x, y],
                                 "worst_distance_px": miss.distance, "poor_above_px": limit}}
+
+
+def pinned_warning(pinned: list[tuple[int, int, float]], plans: list, p: FitParams) -> str:
+    """One sentence on the overlaps Δt a fit left on a clamp bound (``pinned``, from
+    :func:`inkmotion.evaluation.fit_motion.pinned_overlaps`): where, what it means and what
+    to try."""
+    from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
+
+    overlaps = sum(max(0, p.m - 1) for p in plans)
+    paths: dict[int, list[str]] = {}
+    for k, i, _ in pinned:
+        paths.setdefault(k, []).append(str(i))
+    places = "; ".join(f"path {k}: sub-movement{'s' * (len(i) > 1)} {', '.join(i)}"
+                       for k, i in list(paths.items())[:3]) + ("; …" if len(paths) > 3 else "")
+    floor = sum(b == DELTA_T_RANGE[0] for _, _, b in pinned)
+    if floor:
+        fewer = sum(p.m for p in plans) - floor
+        tries = ["--refine 0 (no targets added)"] if p.targets == "default" and p.refine else []
+        meaning = (f"they start as nearly at once as the model allows ({DELTA_T_RANGE[0]}), "
+                   "so the plan has more targets than the motion has movements there; try "
+                   + " or ".join([*tries, f"--targets {fewer}"]))
+    else:
+        meaning = (f"they start as far apart as the model allows ({DELTA_T_RANGE[1]}); try a "
+                   "larger --lambda")
+    return (f"Δt of {len(pinned)} of {overlaps} overlaps sits on its bound ({places}): "
+            f"{meaning}.")
 
 
 def t_end_ratio_multi(staged: Any) -> float:
