@@ -111,6 +111,7 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     assert v7["strays"] is False and v8["strays"] is True  # edits see the motion's strays
     v9 = full({"version": 9, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     assert v8["rescue_mean"] is False and v9["rescue_mean"] is True  # the mean's goal too
+    assert v8["unpinned"] is False and v9["unpinned"] is True  # no edit that pins Δt
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version

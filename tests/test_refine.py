@@ -175,6 +175,34 @@ def test_an_edit_that_brings_the_mean_within_its_goal_is_kept_from_spec_9_on() -
         assert ("mean distance now within the 0.6-px goal" in entry["edit"]["why"]) is kept
 
 
+def test_an_edit_that_pins_more_overlaps_on_their_floor_is_rolled_back_from_spec_9_on(
+) -> None:
+    """A hook's new target that gains its bar but whose sub-movement ends up starting with
+    its neighbour (Δt on the 0.1 floor) made the plan denser than the motion: rolled back
+    under spec 9 (``unpinned``), kept under spec 8, and kept under 9 when it made a poor
+    fit good (a miss above 8 px brought within it)."""
+    from inkmotion.fitting.optimise import FitResult
+    from inkmotion.fitting.stages import SPARSITY, _Edits, _judge
+
+    free = plan_through([[0, 0], [100, 0], [100, 50]], delta_t=0.5)
+    pinned = plan_through([[0, 0], [10, 5], [100, 0], [100, 50]], delta_t=0.5)
+    pinned.delta_t[1] = 0.1  # float64 0.1: exactly the bound
+    result = lambda plans: FitResult(plans, {}, {}, [], [], torch.zeros(1, 1),  # noqa: E731
+                                     0.0, 1)
+    for before, after, unpinned, kept in (((0.5, 4.0), (0.2, 2.0), True, False),
+                                          ((0.5, 4.0), (0.2, 2.0), False, True),
+                                          ((0.5, 9.0), (0.4, 7.0), True, True)):
+        edits = _Edits()
+        _judge(edits, result([free]), before, 350.0, {}, SPARSITY["hand"])
+        edits.pending = {"inserted": 1, "merged": 0}
+        entry: dict = {}
+        _judge(edits, result([pinned]), after, 350.0, entry, SPARSITY["hand"],
+               unpinned=unpinned)
+        assert entry["edit"]["kept"] is kept, (before, after, unpinned)
+        assert ("1 more overlap(s) on a clamp bound" in entry["edit"]["why"]) is (
+            unpinned and not kept)
+
+
 def test_a_missed_hook_gets_a_target_on_the_right_sub_movement() -> None:
     """The input goes out to a hook at (50, 30) and back; the plan goes straight past it.
     The worst miss is the hook's tip, bracketed by where the fit is still on the trace,

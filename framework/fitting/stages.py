@@ -82,6 +82,7 @@ class RefineSettings:
     sparsity: str = "hand"  # default mode: a key of SPARSITY
     strays: bool = True  # fitted samples beyond the goal's max distance are misses too
     rescue_mean: bool = True  # an edit that brings the mean within its goal is kept too
+    unpinned: bool = True  # an edit that pins more overlaps on a clamp bound is rolled back
 
     @property
     def rule(self) -> Sparsity:
@@ -222,7 +223,8 @@ class _Edits:
 
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
            entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"],
-           rescue_mean: bool = False, final: bool = True) -> tuple[FitResult, bool]:
+           rescue_mean: bool = False, final: bool = True, unpinned: bool = False
+           ) -> tuple[FitResult, bool]:
     """Keep the stage's ``result`` if it was refitted from an edit that improved the
     criterion (:func:`inkmotion.fitting.quality.criterion`) or from no edit; otherwise roll
     back to the last kept result. Returns the result to go on from and whether it rolled
@@ -231,7 +233,10 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     it *rescues* the fit: brings the worst miss (or, with ``rescue_mean``, the mean
     distance, when rolling back would end the edits: at the ``final`` stage, or with no
     other way of editing left) from above its goal to the rule's ``rescue_margin`` below
-    it."""
+    it. With ``unpinned``, an edit whose refit leaves more overlaps Δt on a clamp bound
+    than the fit before it is rolled back unless it made a poor fit good: sub-movements
+    that start as nearly at once as the model allows are more targets than the motion
+    has movements (the plan is no longer a model of it)."""
     from inkmotion.fitting.quality import criterion
 
     if edits.pending is None or edits.kept is None or edits.quality is None:
@@ -258,6 +263,9 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
            if rule.rescue_margin > 0 and edits.quality[k] > goal
            and quality[k] <= goal * (1 - rule.rescue_margin)]
     rescued = bool(met) and after < before
+    pinned = unpinned and _pins(result) > _pins(edits.kept)
+    if pinned and not (rescued and any(name == "worst miss" for name, _ in met)):
+        gained = rescued = False  # a denser plan than the motion, for less than a poor fit
     if gained or rescued:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
@@ -274,7 +282,9 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
                             f"{quality[0]:.2f}/{quality[1]:.1f} px)"
                             + (f", less than the {needed + rule.margin:.2f} its "
                                f"{edits.pending['inserted']} new target(s) must gain"
-                               if needed and after < before else ""))
+                               if needed and after < before and not pinned else "")
+                            + (f", and it left {_pins(result) - _pins(edits.kept)} more "
+                               "overlap(s) on a clamp bound" if pinned else ""))
     if edits.pending.get("merged", 0) > 0:
         edits.merges_allowed = False
     elif rule.retry_sequential and not edits.sequential:
@@ -282,6 +292,14 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     else:
         edits.frozen = True
     return edits.kept, True
+
+
+def _pins(result: FitResult) -> int:
+    """Overlaps Δt of a fit's plans on a clamp bound
+    (:func:`inkmotion.evaluation.fit_motion.pinned_overlaps`)."""
+    from inkmotion.evaluation.fit_motion import pinned_overlaps
+
+    return len(pinned_overlaps(result.plans))
 
 
 def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: OptimiserSettings,
@@ -440,7 +458,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
         record.append(entry)
         if rollback:
             result, rolled = _judge(edits, result, (mean, worst), size, entry, refine.rule,
-                                    refine.rescue_mean, last)
+                                    rescue_mean=refine.rescue_mean, final=last,
+                                    unpinned=refine.unpinned)
             if rolled:
                 added -= edits.pending["inserted"] if edits.pending else 0
         if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):

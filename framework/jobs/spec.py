@@ -19,7 +19,7 @@ rolled-back plan edits of issue 19; 5: the 'hand' sparsity of plan edits and the
 defaults of issue 32; 6: the trace term's worst misses, issue 32's words; 7: 400 steps
 whose learning rates decay to 0.3, issue 32's speed; 8: plan edits that also target
 where the motion strays from the ink; 9: plan edits kept when they bring the mean
-distance within its goal). Those
+distance within its goal, rolled back when they pin overlaps on a clamp bound). Those
 defaults are declared once, with their history, on the parameters themselves
 (``param(..., earlier={2: ...})``), so a spec keeps its version and a field it leaves
 out takes that version's default when it is resolved against its kind

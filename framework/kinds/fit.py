@@ -49,7 +49,8 @@ class FitParams(OptimisationParams):
     kept, merges blind to corners; 4: plan edits on a budget, no tolerance; 5: no weight
     on the trace's worst misses; 6: 600 steps decaying to 0.1; 7: edits blind to where
     the motion strays from the ink; 8: only a worst miss brought within its goal keeps an
-    edit that gains less than its targets must)."""
+    edit that gains less than its targets must, and an edit that pins overlaps on a clamp
+    bound may be kept)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -93,6 +94,10 @@ class FitParams(OptimisationParams):
                               "its 0.6-px goal (at 350 px) to within it is kept whatever its "
                               "new targets gain each, as one that brings the worst miss "
                               "within 8 px is.", earlier={8: False})
+    unpinned: bool = param(True, "Roll back an edit whose refit leaves more overlaps Δt on "
+                           "a clamp bound than before it (sub-movements that start as nearly "
+                           "at once as the model allows: more targets than movements), "
+                           "unless it brings a worst miss within 8 px.", earlier={8: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -126,7 +131,8 @@ class FitParams(OptimisationParams):
         return RefineSettings(mode=mode, rounds=self.refine, merge=self.merge,
                               max_error=self.max_error, rollback=self.rollback,
                               protect_corners=self.keep_corners, sparsity=self.sparsity,
-                              strays=self.strays, rescue_mean=self.rescue_mean)
+                              strays=self.strays, rescue_mean=self.rescue_mean,
+                              unpinned=self.unpinned)
 
 
 def target_count(targets: str) -> int | None:
