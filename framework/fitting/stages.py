@@ -263,7 +263,8 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
            if rule.rescue_margin > 0 and edits.quality[k] > goal
            and quality[k] <= goal * (1 - rule.rescue_margin)]
     rescued = bool(met) and after < before
-    pinned = unpinned and _pins(result) > _pins(edits.kept)
+    pins = _pins(result) - _pins(edits.kept) if unpinned else 0  # overlaps newly pinned
+    pinned = pins > 0
     if pinned and not (rescued and any(name == "worst miss" for name, _ in met)):
         gained = rescued = False  # a denser plan than the motion, for less than a poor fit
     if gained or rescued:
@@ -283,8 +284,8 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
                             + (f", less than the {needed + rule.margin:.2f} its "
                                f"{edits.pending['inserted']} new target(s) must gain"
                                if needed and after < before and not pinned else "")
-                            + (f", and it left {_pins(result) - _pins(edits.kept)} more "
-                               "overlap(s) on a clamp bound" if pinned else ""))
+                            + (f", and it left {pins} more overlap(s) on a clamp bound"
+                               if pinned else ""))
     if edits.pending.get("merged", 0) > 0:
         edits.merges_allowed = False
     elif rule.retry_sequential and not edits.sequential:

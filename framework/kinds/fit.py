@@ -93,7 +93,8 @@ class FitParams(OptimisationParams):
     rescue_mean: bool = param(True, "An edit whose refit brings the mean distance from above "
                               "its 0.6-px goal (at 350 px) to within it is kept whatever its "
                               "new targets gain each, as one that brings the worst miss "
-                              "within 8 px is.", earlier={8: False})
+                              "within 8 px is, when rolling it back would end the edits.",
+                              earlier={8: False})
     unpinned: bool = param(True, "Roll back an edit whose refit leaves more overlaps Δt on "
                            "a clamp bound than before it (sub-movements that start as nearly "
                            "at once as the model allows: more targets than movements), "
