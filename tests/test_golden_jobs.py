@@ -2,10 +2,11 @@
 moved to ``inkmotion.kinds`` (issue 21): each still reproduces its results on the CPU,
 within what another machine's kernels move them (below) — the plans of fit, tag and
 abstract, the simulated arm's joint, Cartesian and executed trajectories, the evaluation's
-table, and every figure of its report.json but the wall-clock ones. One key was added to
+table, and every figure of its report.json but the wall-clock ones. Keys were added to
 the files since: the tag and abstract reports record the random-weights warning under
 ``warnings`` (issue 24: a job run on random CLIP weights says so in its report, not only
-once on the console).
+once on the console); and one more: the fit report lists the overlaps left on a clamp
+bound under ``pinned_overlaps`` (issue 32, spec 9; none in this fit).
 
 The files are as ``inkmotion run`` wrote them: inputs relative to tests/data/v4_jobs, the
 tiny CLIP config relative to the repository, random weights as recorded, the abstraction's
