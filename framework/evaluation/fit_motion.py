@@ -54,10 +54,15 @@ def pinned_overlaps(plans: list[Any], tolerance: float = 1e-6) -> list[tuple[int
     return pinned
 
 
+def overlap_count(plans: list[Any]) -> int:
+    """The overlaps Δt_i (i ≥ 2) of all the plans: m − 1 per path of m sub-movements."""
+    return sum(max(0, len(plan.delta_t) - 1) for plan in plans)
+
+
 def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
     """Share of the overlaps Δt_i (i ≥ 2) on a clamp bound (:func:`pinned_overlaps`); 0 when
     no path has two sub-movements."""
-    overlaps = sum(max(0, len(p.delta_t) - 1) for p in plans)
+    overlaps = overlap_count(plans)
     return len(pinned_overlaps(plans, tolerance)) / overlaps if overlaps else 0.0
 
 

@@ -429,9 +429,9 @@ def pinned_warning(pinned: list[tuple[int, int, float]], plans: list, p: FitPara
     """One sentence on the overlaps Δt a fit left on a clamp bound (``pinned``, from
     :func:`inkmotion.evaluation.fit_motion.pinned_overlaps`): where, what it means and what
     to try."""
+    from inkmotion.evaluation.fit_motion import overlap_count
     from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
 
-    overlaps = sum(max(0, p.m - 1) for p in plans)
     paths: dict[int, list[str]] = {}
     for k, i, _ in pinned:
         paths.setdefault(k, []).append(str(i))
@@ -439,7 +439,7 @@ def pinned_warning(pinned: list[tuple[int, int, float]], plans: list, p: FitPara
                        for k, i in list(paths.items())[:3]) + ("; …" if len(paths) > 3 else "")
     floor = sum(b == DELTA_T_RANGE[0] for _, _, b in pinned)
     if floor:
-        fewer = sum(p.m for p in plans) - floor
+        fewer = sum(plan.m for plan in plans) - floor
         tries = ["--refine 0 (no targets added)"] if p.targets == "default" and p.refine else []
         meaning = (f"they start as nearly at once as the model allows ({DELTA_T_RANGE[0]}), "
                    "so the plan has more targets than the motion has movements there; try "
@@ -447,7 +447,8 @@ def pinned_warning(pinned: list[tuple[int, int, float]], plans: list, p: FitPara
     else:
         meaning = (f"they start as far apart as the model allows ({DELTA_T_RANGE[1]}); try a "
                    "larger --lambda")
-    return (f"Δt of {len(pinned)} of {overlaps} overlaps sits on its bound ({places}): "
+    return (f"Δt of {len(pinned)} of {overlap_count(plans)} overlaps sits on its bound "
+            f"({places}): "
             f"{meaning}.")
 
 
