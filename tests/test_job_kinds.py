@@ -112,6 +112,8 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     v9 = full({"version": 9, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     assert v8["rescue_mean"] is False and v9["rescue_mean"] is True  # the mean's goal too
     assert v8["unpinned"] is False and v9["unpinned"] is True  # no edit that pins Δt
+    v10 = full({"version": 10, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    assert v9["unpinned_end"] is False and v10["unpinned_end"] is True  # nor a last stage
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version

@@ -203,6 +203,39 @@ def test_an_edit_that_pins_more_overlaps_on_their_floor_is_rolled_back_from_spec
             unpinned and not kept)
 
 
+def test_a_last_stage_that_only_pins_overlaps_is_undone_from_spec_10_on() -> None:
+    """The last stage went on from the kept plan with no edit, and its pair slid onto the
+    0.1 floor (the new target of an edit judged a stage earlier): under spec 10
+    (``unpinned_end``) the plan it went on from is the result, with why in the record;
+    under spec 9, or at a stage that is not the last, or without new pins, the stage's
+    own result is kept."""
+    from inkmotion.fitting.optimise import FitResult
+    from inkmotion.fitting.stages import SPARSITY, _Edits, _judge
+
+    free = plan_through([[0, 0], [10, 5], [100, 0]], delta_t=0.12)
+    pinned = plan_through([[0, 0], [10, 5], [100, 0]], delta_t=0.12)
+    pinned.delta_t[1] = 0.1  # float64 0.1: exactly the bound
+    result = lambda plans: FitResult(plans, {}, {}, [], [], torch.zeros(1, 1),  # noqa: E731
+                                     0.0, 1)
+    for end, final, last, undone in ((True, True, pinned, True),
+                                     (False, True, pinned, False),
+                                     (True, False, pinned, False),
+                                     (True, True, free, False)):
+        edits = _Edits()
+        kept = result([free])
+        _judge(edits, kept, (0.3, 3.0), 350.0, {}, SPARSITY["hand"])
+        entry: dict = {}
+        went_on = result([last])
+        got, rolled = _judge(edits, went_on, (0.25, 2.0), 350.0, entry, SPARSITY["hand"],
+                             final=final, unpinned=True, unpinned_end=end)
+        case = (end, final, last is pinned)
+        assert (got is kept) is undone and rolled is undone, case
+        assert ("settled" in entry) is undone, case
+        if undone:
+            assert "1 more overlap(s) on a clamp bound" in entry["settled"]["why"]
+            assert edits.kept is kept and edits.quality == (0.3, 3.0)
+
+
 def test_a_missed_hook_gets_a_target_on_the_right_sub_movement() -> None:
     """The input goes out to a hook at (50, 30) and back; the plan goes straight past it.
     The worst miss is the hook's tip, bracketed by where the fit is still on the trace,

@@ -83,6 +83,8 @@ class RefineSettings:
     strays: bool = True  # fitted samples beyond the goal's max distance are misses too
     rescue_mean: bool = True  # an edit that brings the mean within its goal is kept too
     unpinned: bool = True  # an edit that pins more overlaps on a clamp bound is rolled back
+    #: the last stage, a plain continuation, is undone when it pins more overlaps
+    unpinned_end: bool = True
 
     @property
     def rule(self) -> Sparsity:
@@ -223,8 +225,8 @@ class _Edits:
 
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
            entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"],
-           rescue_mean: bool = False, final: bool = True, unpinned: bool = False
-           ) -> tuple[FitResult, bool]:
+           rescue_mean: bool = False, final: bool = True, unpinned: bool = False,
+           unpinned_end: bool = False) -> tuple[FitResult, bool]:
     """Keep the stage's ``result`` if it was refitted from an edit that improved the
     criterion (:func:`inkmotion.fitting.quality.criterion`) or from no edit; otherwise roll
     back to the last kept result. Returns the result to go on from and whether it rolled
@@ -236,10 +238,25 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     it. With ``unpinned``, an edit whose refit leaves more overlaps Δt on a clamp bound
     than the fit before it is rolled back unless it made a poor fit good: sub-movements
     that start as nearly at once as the model allows are more targets than the motion
-    has movements (the plan is no longer a model of it)."""
+    has movements (the plan is no longer a model of it). With ``unpinned_end``, the
+    ``final`` stage, when it only went on from the last kept result (no edit), is undone
+    the same way: a pair that slid onto the floor after the last edit was judged (the new
+    target of a kept edit drifting to start with its neighbour) is not left in the
+    result, and the result it went on from is returned instead."""
     from inkmotion.fitting.quality import criterion
 
     if edits.pending is None or edits.kept is None or edits.quality is None:
+        pins = (_pins(result) - _pins(edits.kept)
+                if unpinned_end and final and edits.kept is not None
+                and edits.quality is not None else 0)
+        if pins > 0:
+            entry["settled"] = {
+                "kept": False,
+                "why": (f"undone: going on from the last kept plan left {pins} more "
+                        f"overlap(s) on a clamp bound (Chamfer {edits.quality[0]:.2f}/"
+                        f"{edits.quality[1]:.1f} px kept, {quality[0]:.2f}/"
+                        f"{quality[1]:.1f} px undone)")}
+            return edits.kept, True
         edits.kept, edits.quality = result, quality
         return result, False
     before = criterion(*edits.quality, size)
@@ -460,7 +477,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
         if rollback:
             result, rolled = _judge(edits, result, (mean, worst), size, entry, refine.rule,
                                     rescue_mean=refine.rescue_mean, final=last,
-                                    unpinned=refine.unpinned)
+                                    unpinned=refine.unpinned,
+                                    unpinned_end=refine.unpinned_end)
             if rolled:
                 added -= edits.pending["inserted"] if edits.pending else 0
         if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):

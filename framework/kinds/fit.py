@@ -99,6 +99,10 @@ class FitParams(OptimisationParams):
                            "a clamp bound than before it (sub-movements that start as nearly "
                            "at once as the model allows: more targets than movements), "
                            "unless it brings a worst miss within 8 px.", earlier={8: False})
+    unpinned_end: bool = param(True, "Undo the last stage when it only went on from the "
+                               "last kept plan (no edit) and left more overlaps Δt on a "
+                               "clamp bound: the plan it went on from is the result.",
+                               earlier={9: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -133,7 +137,7 @@ class FitParams(OptimisationParams):
                               max_error=self.max_error, rollback=self.rollback,
                               protect_corners=self.keep_corners, sparsity=self.sparsity,
                               strays=self.strays, rescue_mean=self.rescue_mean,
-                              unpinned=self.unpinned)
+                              unpinned=self.unpinned, unpinned_end=self.unpinned_end)
 
 
 def target_count(targets: str) -> int | None:
