@@ -366,6 +366,19 @@ def test_marks_above_a_long_tail_come_before_it(tmp_path: Path) -> None:
     assert strokes[0][:, 0].min() > 240 and strokes[1][:, 0].min() < 70
 
 
+def test_stacked_parts_of_a_letter_are_drawn_top_to_bottom(tmp_path: Path) -> None:
+    # an a's hook and stem, and its bowl below reaching further left: one line, and one
+    # column (they share most of their width), so the hook comes first, though the bowl's
+    # left edge is further left; a dab beside the line is a column of its own after it
+    img = line(page((420, 320)), [(120, 60), (200, 50), (260, 80), (260, 250)])
+    img = line(img, [(240, 150), (120, 160), (90, 200), (130, 240), (240, 235)])
+    cv2.circle(img, (360, 200), 8, 30, -1, cv2.LINE_AA)
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 3
+    assert strokes[0][:, 1].min() < 70 and strokes[1][:, 0].min() < 100
+    assert strokes[2][:, 0].min() > 340
+
+
 def test_touching_strokes_keep_their_ends(tmp_path: Path) -> None:
     img = line(page(), [(60, 100), (200, 160)])
     img = line(img, [(200, 160), (340, 100)])  # a V lying on its side: one stroke

@@ -45,7 +45,10 @@ formed, directed and ordered the way a hand draws them.
    rule).
    Strokes are ordered in lines, top to bottom, each line left to right (by the stroke's
    left edge); strokes are in one line when the middle halves of their heights overlap
-   (:data:`CORE_TRIM`).
+   (:data:`CORE_TRIM`). Within a line, strokes one above the other over most of the
+   wider one's width (:data:`COLUMN`) are a column, drawn top to bottom: the parts of
+   one character stacked (an a's hook above its bowl), while a dot or a bar over a
+   wider stroke keeps its place by its left edge.
 5. **Dots**: ink that no stroke passes through, or only a stroke no longer than the blob
    is wide, is a dab, a stroke of two points across the blob, when it is at least as big
    as a dab of the drawing's pen; smaller specks (and any stroke within one) are noise
@@ -122,6 +125,9 @@ TIP_REACH = 3.0
 #: share of a stroke's height trimmed off its top and its bottom to make the core by which
 #: strokes fall into lines (:func:`_ordered`): the middle half of each
 CORE_TRIM = 0.25
+#: strokes of one line whose horizontal extents overlap by more than this share of the
+#: wider one's are a column, drawn top to bottom (:func:`_ordered`)
+COLUMN = 0.5
 
 
 @dataclass
@@ -915,11 +921,15 @@ def _loop_with_gap(pts: np.ndarray) -> bool:
 
 
 def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
-    """Strokes in lines top to bottom, each line left to right by the stroke's left edge
-    (module docstring, step 4): a line is a run of strokes whose vertical cores (their
-    extent less :data:`CORE_TRIM` of their height at each end) overlap. A tag's letters
-    are one line; lines of text are apart; and a long tail reaching down from a word
-    does not pull the marks above it into its line, which are drawn first."""
+    """Strokes in lines top to bottom, each line left to right (module docstring, step 4):
+    a line is a run of strokes whose vertical cores (their extent less
+    :data:`CORE_TRIM` of their height at each end) overlap. A tag's letters are one line;
+    lines of text are apart; and a long tail reaching down from a word does not pull the
+    marks above it into its line, which are drawn first. Within a line, strokes one above
+    the other over most of their width (:data:`COLUMN`: an a's stem and its bowl, a
+    character's stacked parts) are a column, drawn top to bottom; columns go left to
+    right by their left edge. A dot or a bar over a wider stroke is not its column, so a
+    word's i-dots and t-bars still come after the stroke they sit on."""
     boxes = [(s[:, 0].min(), s[:, 1].min(), s[:, 0].max(), s[:, 1].max()) for s in strokes]
     cores = [(top + CORE_TRIM * (low - top), low - CORE_TRIM * (low - top))
              for _, top, _, low in boxes]
@@ -930,4 +940,20 @@ def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
             lines.append([])
         lines[-1].append(i)
         bottom = max(bottom, cores[i][1])
-    return [strokes[i] for line in lines for i in sorted(line, key=lambda i: boxes[i][0])]
+    order: list[int] = []
+    for line in lines:
+        columns: list[list[int]] = []  # each: members, left to right by first member
+        spans: list[tuple[float, float]] = []
+        for i in sorted(line, key=lambda i: boxes[i][0]):
+            left, right = boxes[i][0], boxes[i][2]
+            for k, (a, b) in enumerate(spans):
+                if min(right, b) - max(left, a) > COLUMN * max(right - left, b - a):
+                    columns[k].append(i)
+                    spans[k] = (min(a, left), max(b, right))
+                    break
+            else:
+                columns.append([i])
+                spans.append((left, right))
+        for members in columns:
+            order += sorted(members, key=lambda i: (boxes[i][1], boxes[i][0]))
+    return [strokes[i] for i in order]
