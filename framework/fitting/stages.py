@@ -13,7 +13,10 @@ Modes (the fit job's ``--targets``):
   rule's ``gain_per_target`` per inserted target plus its ``margin``; otherwise the plan
   and the optimiser state go back to before the edit, the record says so and why, and
   the fit goes on from there (the next edit without merges if the undone one merged,
-  else no more edits). The edits together may then add up to 25 % of the initial m, +2
+  else no more edits). A last stage that only went on from the kept result (no edit)
+  and left more overlaps Δt on a clamp bound is undone the same way (``unpinned_end``:
+  a kept edit's target can slide onto the floor after it was judged). With ``rollback``
+  the edits together may add up to 25 % of the initial m, +2
   below 8 ('hand'; every plan under 'budget', :func:`~inkmotion.fitting.refine.
   growth_margin`), and merges leave at least 75 % ('hand'); without ``rollback`` at most
   ``insert_share`` × the initial m, and every edit is kept (versions 1–3).
