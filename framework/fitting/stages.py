@@ -249,10 +249,9 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     from inkmotion.fitting.quality import criterion
 
     if edits.pending is None or edits.kept is None or edits.quality is None:
-        pins = (_pins(result) - _pins(edits.kept)
-                if unpinned_end and final and edits.kept is not None
-                and edits.quality is not None else 0)
-        if pins > 0:
+        pins = (_new_pins(result, edits.kept)
+                if unpinned_end and final and edits.kept is not None else 0)
+        if pins > 0 and edits.quality is not None:
             entry["settled"] = {
                 "kept": False,
                 "why": (f"undone: going on from the last kept plan left {pins} more "
@@ -283,7 +282,7 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
            if rule.rescue_margin > 0 and edits.quality[k] > goal
            and quality[k] <= goal * (1 - rule.rescue_margin)]
     rescued = bool(met) and after < before
-    pins = _pins(result) - _pins(edits.kept) if unpinned else 0  # overlaps newly pinned
+    pins = _new_pins(result, edits.kept) if unpinned else 0
     pinned = pins > 0
     if pinned and not (rescued and any(name == "worst miss" for name, _ in met)):
         gained = rescued = False  # a denser plan than the motion, for less than a poor fit
@@ -315,12 +314,12 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     return edits.kept, True
 
 
-def _pins(result: FitResult) -> int:
-    """Overlaps Δt of a fit's plans on a clamp bound
-    (:func:`inkmotion.evaluation.fit_motion.pinned_overlaps`)."""
+def _new_pins(result: FitResult, before: FitResult) -> int:
+    """How many more overlaps Δt of ``result``'s plans sit on a clamp bound than of
+    ``before``'s (:func:`inkmotion.evaluation.fit_motion.pinned_overlaps`)."""
     from inkmotion.evaluation.fit_motion import pinned_overlaps
 
-    return len(pinned_overlaps(result.plans))
+    return len(pinned_overlaps(result.plans)) - len(pinned_overlaps(before.plans))
 
 
 def fit_in_stages(plans: list[MotorPlan], objective: Objective, settings: OptimiserSettings,
