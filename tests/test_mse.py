@@ -83,3 +83,48 @@ def test_plugin_takes_a_reference_and_levels() -> None:
     image = _disc(64, 64, 25, 30)
     torch.testing.assert_close(plugin.prepare(Reference(image=target), levels=2)(image),
                                multiscale_mse(image, target, 2))
+
+
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
+def test_gathered_levels_are_the_strided_levels_bit_for_bit(device: torch.device,
+                                                            dtype: torch.dtype) -> None:
+    """A small level goes down (and its gradient up) by gathers: the same products added in
+    the same order as the strided form, so the same bits, at every size, odd or even, along
+    either axis, whatever the other axis holds."""
+    from inkmotion.image_losses import multiscale_mse as mse
+
+    g = torch.Generator().manual_seed(1)
+    for n in [*range(3, 40), 61, 88, 121, 175]:
+        for other in (1, 7):
+            for dim in (-2, -1):
+                shape = (other, n) if dim == -1 else (n, other)
+                x = torch.randn(shape, generator=g, dtype=torch.float64).to(device, dtype)
+                down = mse._down_forward(x, dim)
+                assert torch.equal(mse._down_gathered(x, dim), down), (n, other, dim)
+                grad = torch.randn(down.shape, generator=g, dtype=torch.float64).to(
+                    device, dtype)
+                assert torch.equal(mse._up_gathered(grad, n, dim),
+                                   mse._down_backward(grad, n, dim)), (n, other, dim)
+
+
+def test_the_loss_and_its_gradient_do_not_depend_on_which_form_a_level_takes(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from inkmotion.image_losses import multiscale_mse as mse
+
+    g = torch.Generator().manual_seed(2)
+    target = (torch.rand(90, 67, generator=g) > 0.7).float()
+    image = torch.rand(90, 67, generator=g)
+
+    def loss_and_grad() -> tuple[torch.Tensor, torch.Tensor]:
+        x = image.clone().requires_grad_(True)
+        value = prepare_multiscale_mse(target)(x)
+        value.backward()
+        return value.detach(), x.grad
+
+    monkeypatch.setattr(mse, "GATHER_BELOW", 0)
+    monkeypatch.setattr(mse, "UP_GATHER_BELOW", 0)
+    strided = loss_and_grad()
+    monkeypatch.setattr(mse, "GATHER_BELOW", 10**9)
+    monkeypatch.setattr(mse, "UP_GATHER_BELOW", 10**9)
+    gathered = loss_and_grad()
+    assert torch.equal(strided[0], gathered[0]) and torch.equal(strided[1], gathered[1])
