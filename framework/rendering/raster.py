@@ -361,18 +361,20 @@ def capsule_coverage(
         x = _excess(dx, dy, ab[at + (0,)], ab[at + (1,)], inv_len2[at], r[at],
                     None if dr is None else dr[at])  # (N, ky, kx)
         cov = x.clamp(0, 1) * inside  # (N, ky, kx)
-        img = torch.zeros(pages * height * width, dtype=dtype, device=dev)
-        img = img.scatter_reduce(0, flat.reshape(-1), cov.reshape(-1), reduce="amax",
-                                 include_self=True)
+        img = torch.zeros(pages * height * width, dtype=dtype, device=dev).scatter_reduce_(
+            0, flat.reshape(-1), cov.reshape(-1), reduce="amax", include_self=True)
     if sparse:
         with torch.no_grad():
             flat = flat.reshape(-1)
             top = cov.reshape(-1) == img.index_select(0, flat)
-            share = (img == 0).to(dtype).scatter_add(0, flat, top.to(dtype))
+            tops = torch.zeros_like(img).scatter_add_(0, flat, top.to(dtype))  # per pixel
             rim = (top & inside.reshape(-1) & (x.reshape(-1) >= 0)
                    & (x.reshape(-1) <= 1)).nonzero().squeeze(1)  # (K,) patch entries
             piece, within = rim // (ky * kx), rim % (ky * kx)
             pixel = flat.index_select(0, rim)
+            # the values equal to each rim pixel's maximum: its patch entries and, where
+            # the maximum is 0, the blank page's (small whole numbers: exact in any order)
+            share = tops.index_select(0, pixel) + (img.index_select(0, pixel) == 0).to(dtype)
             x_at = xs.reshape(-1).index_select(0, piece * kx + within % kx).to(dtype)
             y_at = ys.reshape(-1).index_select(0, piece * ky + within // kx).to(dtype)
         # index_select, not a[piece, 0]: a third of the cost per gather here; one column at
@@ -383,7 +385,7 @@ def capsule_coverage(
                         inv_len2.index_select(0, piece),
                         r.index_select(0, piece),
                         None if dr is None else dr.index_select(0, piece))  # (K,)
-        img = _MaxUnion.apply(x_rim, img, pixel, share.index_select(0, pixel))
+        img = _MaxUnion.apply(x_rim, img, pixel, share)
     return img.reshape(shape)
 
 
