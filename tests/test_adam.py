@@ -1,0 +1,36 @@
+"""The fit's Adam: torch.optim.Adam's arithmetic, one learning rate per tensor."""
+
+import torch
+
+from inkmotion.fitting.optimise import Adam
+
+
+def test_steps_are_torch_adams_bit_for_bit_under_a_changing_schedule() -> None:
+    g = torch.Generator().manual_seed(0)
+    shapes, lrs = [(13, 2), (11,), (11,), (11,)], [1.0, 0.05, 0.01, 0.002]
+    start = [torch.randn(s, generator=g) for s in shapes]
+    ours = [t.clone().requires_grad_(True) for t in start]
+    theirs = [t.clone().requires_grad_(True) for t in start]
+    adam = Adam(list(zip(ours, lrs, strict=True)))
+    reference = torch.optim.Adam([{"params": [p], "lr": lr} for p, lr in zip(theirs, lrs,
+                                                                               strict=True)],
+                                 foreach=False)
+    for k in range(200):
+        factor = 0.3 + 0.7 * (k % 7) / 7
+        for mine, ref, shape in zip(ours, theirs, shapes, strict=True):
+            grad = torch.randn(shape, generator=g) * 10.0 ** (k % 5 - 2)
+            mine.grad, ref.grad = grad.clone(), grad.clone()
+        for group, lr in zip(reference.param_groups, lrs, strict=True):
+            group["lr"] = lr * factor
+        adam.step(factor)
+        reference.step()
+    assert all(torch.equal(a, b) for a, b in zip(ours, theirs, strict=True))
+
+
+def test_a_tensor_without_a_gradient_is_left_as_it_is() -> None:
+    a, b = torch.ones(3, requires_grad=True), torch.ones(2, requires_grad=True)
+    adam = Adam([(a, 0.1), (b, 0.1)])
+    a.grad = torch.ones(3)
+    adam.step()
+    assert torch.equal(b, torch.ones(2)) and not torch.equal(a, torch.ones(3))
+    assert float(adam.steps[1]) == 0.0 and float(adam.steps[0]) == 1.0
