@@ -14,10 +14,12 @@ Everything is a plain torch op: differentiable, on the inputs' device and dtype.
 Determinism. :func:`prepare_multiscale_mse` computes the levels of a fit's rendering with
 elementwise torch ops only — the 5-tap blur and the pair mean folded into one stride-2
 filter of 6 taps, applied as six scaled, shifted copies added in a fixed order — no matrix
-product and no convolution. Elementwise IEEE arithmetic gives the same bits whatever the
-thread count and whatever the instruction set its kernels were built for, so the loss's
-gradient (what the optimiser sees) is the same under 1, 2 or 4 threads and under other
-BLAS or oneDNN code paths (``MKL_CBWR``). The dense operators it replaced (two matrix
+product and no convolution (a small level gathers its six taps at once and adds the same
+products in the same order, :data:`GATHER_BELOW`: the same bits in fewer ops).
+Elementwise IEEE arithmetic gives the same bits whatever the thread count and whatever
+the instruction set its kernels were built for, so the loss's gradient (what the
+optimiser sees) is the same under 1, 2 or 4 threads and under other BLAS or oneDNN code
+paths (``MKL_CBWR``). The dense operators it replaced (two matrix
 products per level) changed their last bits with the thread count and the MKL code path,
 which a few hundred Adam steps carried into different plans. (The batched loss of several
 drawings, :func:`stack_multiscale_mse`, still uses matrix products: a batch agrees with
