@@ -191,8 +191,8 @@ def _gather_plan(n: int, dtype: torch.dtype, device: torch.device
     """The taps of :func:`_down_forward` along an axis of n ≥ 3 samples as gathers, made
     once per size: ``index`` (6·m,) the sample each tap reads (replicate padding as a
     clamped index; m = ⌈n/2⌉ outputs, tap-major), ``weight`` (6, m) its weight (a lone last
-    window: the 5 blur weights and a 6th of 0, whose +0 leaves each sum's bits as they
-    are); for the adjoint, ``sources`` (4, n + 5): per padded sample, the products that
+    window: the 5 blur weights and a 6th of 0: adding +0 changes no value, at most the
+    sign of a zero); for the adjoint, ``sources`` (4, n + 5): per padded sample, the products that
     :func:`_down_backward` adds into it, in its order (6·m: none), and ``folds`` (4, n):
     per sample, the padded samples it sums, in its order (n + 5: none)."""
     k, folded = _taps()
