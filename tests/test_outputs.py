@@ -156,3 +156,38 @@ def test_staging_dir_exception_keeps_existing(tmp_path: Path) -> None:
         raise ValueError
     assert sorted(p.name for p in tmp_path.iterdir()) == ["job"]
     assert (final / "keep.txt").read_text() == "keep"
+
+
+def test_plots_leave_the_processs_matplotlib_as_it_was(tmp_path: Path) -> None:
+    """Every plot the jobs write draws on a figure of its own: the backend a notebook or
+    a worker chose stays, and no pyplot figure is left open."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    from inkmotion.evaluation.human import plot_speed_profiles
+    from inkmotion.evaluation.plots import plot_minima, plot_speeds
+    from inkmotion.evaluation.timings import TimedPath
+    from inkmotion.plotter.preview import write_feed_plot, write_preview
+    from inkmotion.plotter.timing import PlotStroke
+
+    before = matplotlib.get_backend()
+    matplotlib.use("svg")
+    try:
+        t = np.linspace(0.0, 1.0, 50)
+        xy = np.column_stack((100 * t, 40 * np.sin(6 * t)))
+        arc = np.linspace(0.0, 1.0, 50)
+        speed = np.sin(np.pi * arc) + 0.1
+        timed = TimedPath(t, xy, np.gradient(xy, axis=0), np.zeros_like(xy), None, "ΣΛ")
+        stroke = PlotStroke(0, 0, xy[:10] / 2, np.full(9, 0.1), np.full(9, 5.0))
+        write_speed_plot(tmp_path / "speed.png", _plans())
+        plot_speed_profiles(tmp_path / "human.png", [(arc, speed)], [(arc, speed[::-1])])
+        plot_speeds(tmp_path / "speeds.png", {"sigma-lognormal": timed}, 0.001)
+        plot_minima(tmp_path / "minima.png", xy, 0.02, (120.0, 60.0))
+        write_preview(tmp_path / "preview.png", [stroke], (60.0, 40.0), "a stroke")
+        write_feed_plot(tmp_path / "feed.png", [stroke])
+        assert matplotlib.get_backend() == "svg"
+        assert plt.get_fignums() == []
+        for name in ("speed", "human", "speeds", "minima", "preview", "feed"):
+            assert cv2.imread(str(tmp_path / f"{name}.png")) is not None, name
+    finally:
+        matplotlib.use(before)

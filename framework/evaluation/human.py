@@ -182,15 +182,13 @@ def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.nd
     the recorded total arc length, and both profiles are placed on it by their own arc
     length normalised to [0, 1], so the axis runs from 0 to 1. y: each stroke's speed
     divided by that stroke's own peak speed (the two run on different clocks)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from inkmotion.outputs.figure import agg_figure
 
     lengths = np.array([float(a[-1] - a[0]) for a, _ in recorded])
     total = float(lengths.sum()) or 1.0
     starts = np.concatenate(([0.0], np.cumsum(lengths)))[:-1] / total
-    fig, ax = plt.subplots(figsize=(9, 3.2), dpi=120)
+    fig = agg_figure(9, 3.2)
+    ax = fig.add_subplot()
     for i, ((ra, rs), (fa, fs)) in enumerate(zip(recorded, fit, strict=True)):
         width = lengths[i] / total
         for arc, speed, colour, label in ((ra, rs, "#999999", "recorded (smoothed)"),
@@ -206,7 +204,6 @@ def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.nd
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
 
 
 def _pair(recorded: list[np.ndarray], fitted: list[np.ndarray]) -> list[int]:

@@ -21,12 +21,10 @@ def _speed(position: np.ndarray, dt: float) -> np.ndarray:
 
 def plot_speeds(path: str | Path, timed: dict[str, Any], scale: float) -> None:
     """Speed (m/s) against time (s) of every timed path in ``timed`` (name → TimedPath)."""
-    import matplotlib
+    from inkmotion.outputs.figure import agg_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 3.2), dpi=120)
+    fig = agg_figure(8, 3.2)
+    ax = fig.add_subplot()
     for name, timed_path in timed.items():
         dt = float(timed_path.t[1] - timed_path.t[0]) if len(timed_path.t) > 1 else 1.0
         ax.plot(timed_path.t, scale * _speed(timed_path.position, dt),
@@ -37,7 +35,6 @@ def plot_speeds(path: str | Path, timed: dict[str, Any], scale: float) -> None:
     ax.set_title("the same path, three timings under the same limits", fontsize=9)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
 
 
 def plot_minima(path: str | Path, position: np.ndarray, dt: float,
@@ -46,12 +43,10 @@ def plot_minima(path: str | Path, position: np.ndarray, dt: float,
     relative to its peak, with its speed minima as dots (the paper's Fig. 3c/d: the pen
     slows where the path bends). ``canvas`` is only used to keep the y axis pointing down
     in canvas coordinates."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
+    from matplotlib.colors import Normalize
 
+    from inkmotion.outputs.figure import agg_figure
     from inkmotion.speed_extrema import find_peaks
 
     xy = np.asarray(position, dtype=float)[:, :2]
@@ -61,9 +56,10 @@ def plot_minima(path: str | Path, position: np.ndarray, dt: float,
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     pad = 0.05 * float(max(hi - lo)) + 2.0
     w, h = float(hi[0] - lo[0]) + 2 * pad, float(hi[1] - lo[1]) + 2 * pad
-    fig, ax = plt.subplots(figsize=(6.4, min(9.0, 5.4 * h / max(w, 1.0)) + 0.8), dpi=120)
+    fig = agg_figure(6.4, min(9.0, 5.4 * h / max(w, 1.0)) + 0.8)
+    ax = fig.add_subplot()
     pieces = np.stack([xy[:-1], xy[1:]], axis=1)  # (N−1, 2, 2)
-    line = LineCollection(pieces, cmap="viridis", norm=plt.Normalize(0, 1), linewidths=2.2)
+    line = LineCollection(pieces, cmap="viridis", norm=Normalize(0, 1), linewidths=2.2)
     line.set_array(0.5 * (relative[:-1] + relative[1:]))
     ax.add_collection(line)
     ax.scatter(xy[minima, 0], xy[minima, 1], s=30, facecolors="none", edgecolors="#d62728",
@@ -79,4 +75,3 @@ def plot_minima(path: str | Path, position: np.ndarray, dt: float,
     ax.set_yticks([])
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)

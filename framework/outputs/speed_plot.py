@@ -3,8 +3,8 @@
 The total speed |v(t)| of each trajectory is drawn in black and the contribution
 Λ_i(t)·h_i·|d_i| of each lognormal as a thin blue line; trajectories are laid one after
 another on the time axis, separated by a small gap (pen lift), with a faint band marking
-each. Matplotlib is used through its object API (``Figure`` + the Agg canvas), so no global
-backend state is changed.
+each. Matplotlib is used through its object API (:func:`~inkmotion.outputs.figure.agg_figure`),
+so no global backend state is changed.
 """
 
 from __future__ import annotations
@@ -24,16 +24,15 @@ MIN_SAMPLES = 200
 
 def write_speed_plot(path: str | Path, plans: list[MotorPlan]) -> None:
     """Write the speed profiles of ``plans`` (time in s, speed in px/s) to an image file."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import LineCollection
-    from matplotlib.figure import Figure
+
+    from inkmotion.outputs.figure import agg_figure
 
     assert plans, "at least one plan"
     plans = [on_cpu(p) for p in plans]
     ends = [float(p.end_time) for p in plans]
     gap = 0.03 * sum(ends) + 1e-3
-    fig = Figure(figsize=(10, 3.2), dpi=120)
-    FigureCanvasAgg(fig)
+    fig = agg_figure(10, 3.2)
     ax = fig.add_subplot(1, 1, 1)
     bells: list[np.ndarray] = []
     start = 0.0

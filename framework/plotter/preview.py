@@ -14,16 +14,15 @@ from inkmotion.plotter.timing import PlotStroke
 def write_preview(path: Path, strokes: list[PlotStroke], paper: tuple[float, float],
                   title: str) -> None:
     """plot_preview.png (module docstring)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
+    from matplotlib.patches import Rectangle
+
+    from inkmotion.outputs.figure import agg_figure
 
     w, h = paper
-    fig, ax = plt.subplots(figsize=(6.0 * w / max(w, h) + 1.2, 6.0 * h / max(w, h) + 0.6),
-                           dpi=150)
-    ax.add_patch(plt.Rectangle((0, 0), w, h, fill=False, lw=0.8, color="0.4"))
+    fig = agg_figure(6.0 * w / max(w, h) + 1.2, 6.0 * h / max(w, h) + 0.6, dpi=150)
+    ax = fig.add_subplot()
+    ax.add_patch(Rectangle((0, 0), w, h, fill=False, lw=0.8, color="0.4"))
     segments = [np.stack((st.points[:-1], st.points[1:]), axis=1) for st in strokes
                 if len(st.points) > 1]
     feeds = np.concatenate([st.feeds for st in strokes if len(st.points) > 1] or [[0.0]])
@@ -48,17 +47,14 @@ def write_preview(path: Path, strokes: list[PlotStroke], paper: tuple[float, flo
     ax.set_title(title, fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
 
 
 def write_feed_plot(path: Path, strokes: list[PlotStroke]) -> None:
     """feed.png: per-segment feed (steps) and the ΣΛ speed (line), stroke after stroke."""
-    import matplotlib
+    from inkmotion.outputs.figure import agg_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(9, 3), dpi=120)
+    fig = agg_figure(9, 3)
+    ax = fig.add_subplot()
     t0 = 0.0
     for i, st in enumerate(strokes):
         if len(st.durations) == 0:
@@ -74,4 +70,3 @@ def write_feed_plot(path: Path, strokes: list[PlotStroke]) -> None:
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
