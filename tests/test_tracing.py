@@ -817,6 +817,20 @@ def test_a_black_page_on_a_light_desk_leaves_the_desk_out(tmp_path: Path,
     assert len(trace_picture(picture).strokes) == 3
 
 
+def test_bold_black_letters_are_dark_ink_not_a_black_page(tmp_path: Path) -> None:
+    """Heavy marker letters close together on white paper: once a closing has bridged the
+    gaps between them, the inverted picture shows a light, convex, cornered block on a
+    dark surround, as a black card on a light desk would. But the white paper runs on
+    into those gaps, where a card's tone is unbroken: no page, and the letters are the
+    (dark) ink, not their counters."""
+    img = np.full((400, 900), 255, np.uint8)
+    cv2.putText(img, "AB8e", (60, 320), cv2.FONT_HERSHEY_SIMPLEX, 9, 0, 28, cv2.LINE_AA)
+    picture = read_picture(save(tmp_path, img))
+    assert not picture.inverted and picture.page is None, picture.notes
+    ink = picture.mask
+    assert ink[img < 60].mean() > 0.95 and ink[img > 200].mean() < 0.02
+
+
 def test_a_photographed_ruled_page_loses_its_ruling_too(tmp_path: Path) -> None:
     """The ruled lines of a page on a desk run from edge to edge of the page, not of the
     photo: they are looked for within the page."""
