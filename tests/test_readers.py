@@ -213,6 +213,37 @@ def test_svg_nested_transform():
     np.testing.assert_allclose(t.strokes[0], [[50, 50], [70, 50]])
 
 
+@pytest.mark.parametrize("shape", [
+    '<circle cx="0" cy="0" r="20"/>', '<ellipse cx="0" cy="0" rx="20" ry="20"/>',
+    '<rect x="-14" y="-14" width="28" height="28"/>'])
+def test_svg_basic_shapes_in_a_rotated_group_are_drawn_where_shown(tmp_path: Path,
+                                                                  shape: str):
+    """A circle, an ellipse or a rectangle in a rotated, scaled group (Inkscape writes
+    such transforms): svgelements cannot make it a shape again, so it keeps the transform
+    aside as a matrix; the strokes are the shape where the SVG shows it, as a path with
+    the same transform is (they were drawn untransformed, at the origin)."""
+    def strokes(element: str) -> np.ndarray:
+        svg = tmp_path / "s.svg"
+        svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 400 200" '
+                       'width="200mm" height="100mm"><g transform="translate(300 100) '
+                       f'rotate(30) scale(2 1)" fill="none" stroke="black">{element}</g>'
+                       '<path d="M 10 10 L 60 10" stroke="black"/></svg>')
+        return np.vstack(read_svg(str(svg)).strokes[0])
+
+    shown = strokes(shape)
+    centre = np.array([300.0, 100.0]) * 200 / 400 * 96 / 25.4  # user units to px
+    turn = np.radians(30)
+    rel = (shown - centre) @ np.array([[np.cos(turn), -np.sin(turn)],
+                                       [np.sin(turn), np.cos(turn)]])  # turned back
+    assert np.abs(rel).max() > 50  # scaled 2:1 about the group's origin (half-width 53 px)
+    if "rect" in shape:
+        np.testing.assert_allclose(np.abs(rel).max(axis=0), [14 * 2, 14] * np.array(
+            200 / 400 * 96 / 25.4), rtol=1e-4)
+    else:  # an ellipse 2:1 about the group's origin
+        x, y = rel.T / (200 / 400 * 96 / 25.4)
+        np.testing.assert_allclose(np.hypot(x / 2, y), 20, rtol=1e-3)
+
+
 def test_flatten_segment_tolerance():
     def circle(ts):
         return np.stack([np.cos(np.pi * ts), np.sin(np.pi * ts)], axis=1)

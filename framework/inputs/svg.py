@@ -68,7 +68,9 @@ def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
     """The ``shapes`` (:func:`_visible_shapes`) as polylines (one per subpath)."""
     paths = []
     for el in shapes:
-        path = el if isinstance(el, se.Path) else se.Path(el)
+        # abs: the transform applied to the segments themselves (a shape that cannot carry
+        # it, a circle in a rotated group, keeps it aside, unapplied, as a matrix)
+        path = abs(el if isinstance(el, se.Path) else se.Path(el))
         if len(path) == 0:
             continue
         paths.append(path)
