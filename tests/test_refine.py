@@ -175,6 +175,35 @@ def test_an_edit_that_brings_the_mean_within_its_goal_is_kept_from_spec_9_on() -
         assert ("mean distance now within the 0.6-px goal" in entry["edit"]["why"]) is kept
 
 
+def test_an_edit_pays_for_the_time_it_adds_from_spec_11_on() -> None:
+    """One target that takes a fit from 0.5/4.0 px to 0.35/3.0 px gains 0.375 of the
+    criterion, over the 0.12 it must. Without the time (spec 10) it is kept whatever it
+    adds to the motion; with it (spec 11's ``weigh_time``: + T_end ratio / 0.65) it is kept
+    when the ratio goes from 0.55 to 0.60 (0.077 of the criterion), rolled back when it goes
+    to 0.80 (0.385: a slower motion than its accuracy buys back), and the record names both
+    ratios. A mean brought within its goal (0.62 → 0.57 px, a gain of 0.083, under the bar)
+    is rescued at once where the time is weighed, before the (slower) retry with
+    sequential splits; without the time the retry comes first."""
+    from inkmotion.fitting.optimise import FitResult
+    from inkmotion.fitting.stages import SPARSITY, _Edits, _judge
+
+    hand = SPARSITY["hand"]
+    result = lambda: FitResult([], {}, {}, [], [], torch.zeros(1, 1), 0.0, 1)  # noqa: E731
+    for before, after, kept in (((0.5, 4.0), (0.35, 3.0), True),
+                                ((0.5, 4.0, 0.55), (0.35, 3.0, 0.60), True),
+                                ((0.5, 4.0, 0.55), (0.35, 3.0, 0.80), False),
+                                ((0.62, 4.0, 0.55), (0.57, 4.0, 0.56), True),  # rescued
+                                ((0.62, 4.0), (0.57, 4.0), False)):  # the retry first
+        edits = _Edits()
+        _judge(edits, result(), before, 350.0, {}, hand, rescue_mean=True)
+        edits.pending = {"inserted": 1, "merged": 0}
+        entry: dict = {}
+        _, rolled = _judge(edits, result(), after, 350.0, entry, hand, rescue_mean=True,
+                           final=False)
+        assert entry["edit"]["kept"] is kept and rolled is not kept, (before, after)
+        assert ("T_end ratio 0.55 → " in entry["edit"]["why"]) is (len(before) > 2)
+
+
 def test_an_edit_that_pins_more_overlaps_on_their_floor_is_rolled_back_from_spec_9_on(
 ) -> None:
     """A hook's new target that gains its bar but whose sub-movement ends up starting with

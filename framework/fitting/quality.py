@@ -9,6 +9,10 @@ The goals are given on a 350-px canvas (the authors' size) and scale with the ca
 - the fit's criterion q = mean / (0.6 px·s) + max / (8 px·s), s = size / 350: each goal
   counts 1 when met exactly; lower is better. A plan edit is kept only when the refit from
   it has a q no higher than the fit before the edit (:mod:`inkmotion.fitting.stages`).
+  From spec version 11 on the motion's time is weighed with them, by its own goal:
+  q + r / 0.65, r the T_end ratio (T_end after / before the fit over the paths that began
+  with 2 or more sub-movements), so a target that makes the motion slower must buy that
+  time back in accuracy.
 - a fit is *poor* when its max distance exceeds 8 px·s: some part of the input is drawn
   that far off, or not at all.
 """
@@ -26,6 +30,8 @@ REFERENCE_SIZE = 350.0
 #: px at the reference size: the goals of a fit, Chamfer mean and max
 GOAL_MEAN_PX = 0.6
 GOAL_MAX_PX = 8.0
+#: the goal of the T_end ratio (T_end after / before the fit, paths of 2+ sub-movements)
+GOAL_T_END_RATIO = 0.65
 
 
 def chamfer_of(strokes: list[np.ndarray], plans: list[MotorPlan]) -> tuple[float, float]:
@@ -36,10 +42,24 @@ def chamfer_of(strokes: list[np.ndarray], plans: list[MotorPlan]) -> tuple[float
     return chamfer(strokes, [sample(on_cpu(p)).positions for p in plans])
 
 
-def criterion(mean: float, worst: float, size: float) -> float:
-    """q = mean / (0.6 px·s) + max / (8 px·s), s = size / 350 (module docstring)."""
+def criterion(mean: float, worst: float, size: float, t_end_ratio: float | None = None
+              ) -> float:
+    """q = mean / (0.6 px·s) + max / (8 px·s), s = size / 350, plus r / 0.65 where the T_end
+    ratio r is given (module docstring)."""
     s = float(size) / REFERENCE_SIZE
-    return mean / (GOAL_MEAN_PX * s) + worst / (GOAL_MAX_PX * s)
+    q = mean / (GOAL_MEAN_PX * s) + worst / (GOAL_MAX_PX * s)
+    return q if t_end_ratio is None else q + t_end_ratio / GOAL_T_END_RATIO
+
+
+def t_end_ratio(initial_moves: list[int], initial_t_end: list[float],
+                final_t_end: list[float]) -> float:
+    """T_end after / before the fit over the paths that began with 2 or more sub-movements
+    (a single lognormal has no overlap to shorten): the sums of each path's T_end; NaN when
+    no path did."""
+    multi = [i for i, m in enumerate(initial_moves) if m >= 2]
+    before = sum(initial_t_end[i] for i in multi)
+    after = sum(final_t_end[i] for i in multi)
+    return after / before if before > 0 else float("nan")
 
 
 def poor_above(size: float) -> float:

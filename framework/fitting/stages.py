@@ -9,8 +9,10 @@ Modes (the fit job's ``--targets``):
   the rest of the steps, split evenly over the rounds. With 0 rounds it is
   one plain fit. With ``rollback`` (version-4 specs on) every edit is judged after its
   refit against the input: it is kept only when the fit's criterion (Chamfer mean / 0.6
-  px + max / 8 px at 350 px, :mod:`inkmotion.fitting.quality`) fell by at least the
-  rule's ``gain_per_target`` per inserted target plus its ``margin``; otherwise the plan
+  px + max / 8 px at 350 px, :mod:`inkmotion.fitting.quality`; with ``weigh_time``, spec
+  version 11 on, + the T_end ratio / 0.65, so an edit that slows the motion must buy the
+  time back in accuracy) fell by at least the rule's ``gain_per_target`` per inserted
+  target plus its ``margin``; otherwise the plan
   and the optimiser state go back to before the edit, the record says so and why, and
   the fit goes on from there (the next edit without merges if the undone one merged,
   else no more edits). A last stage that only went on from the kept result (no edit)
@@ -88,6 +90,8 @@ class RefineSettings:
     unpinned: bool = True  # an edit that pins more overlaps on a clamp bound is rolled back
     #: the last stage, a plain continuation, is undone when it pins more overlaps
     unpinned_end: bool = True
+    #: the criterion that judges an edit weighs the motion's T_end ratio too
+    weigh_time: bool = True
 
     @property
     def rule(self) -> Sparsity:
@@ -202,7 +206,8 @@ class _Edits:
     what the next edit may still do after rollbacks."""
 
     kept: FitResult | None = None
-    quality: tuple[float, float] | None = None  # (mean, max) px of ``kept``
+    #: (mean, max) px of ``kept``, and its T_end ratio where time is weighed
+    quality: tuple[float, ...] | None = None
     pending: dict[str, int] | None = None  # {"inserted": n, "merged": k}
     merges_allowed: bool = True  # a rolled-back edit with merges: insert only next time
     frozen: bool = False  # a rolled-back edit without merges: no more edits
@@ -226,28 +231,27 @@ class _Edits:
                    d.get("sequential", False))
 
 
-def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size: float,
+def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: float,
            entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"],
            rescue_mean: bool = False, final: bool = True, unpinned: bool = False,
            unpinned_end: bool = False) -> tuple[FitResult, bool]:
-    """Keep the stage's ``result`` if it was refitted from an edit that improved the
-    criterion (:func:`inkmotion.fitting.quality.criterion`) or from no edit; otherwise roll
-    back to the last kept result. Returns the result to go on from and whether it rolled
-    back; ``entry`` (the stage's record) says what was decided and why. An edit that
-    improves the criterion by less than its targets must gain is kept all the same when
-    it *rescues* the fit: brings the worst miss (or, with ``rescue_mean``, the mean
-    distance, when rolling back would end the edits: at the ``final`` stage, or with no
-    other way of editing left) from above its goal to the rule's ``rescue_margin`` below
-    it. With ``unpinned``, an edit whose refit leaves more overlaps Δt on a clamp bound
-    than the fit before it is rolled back unless it made a poor fit good: sub-movements
-    that start as nearly at once as the model allows are more targets than the motion
-    has movements (the plan is no longer a model of it). With ``unpinned_end``, the
-    ``final`` stage, when it only went on from the last kept result (no edit), is undone
-    the same way: a pair that slid onto the floor after the last edit was judged (the new
-    target of a kept edit drifting to start with its neighbour) is not left in the
-    result, and the result it went on from is returned instead."""
-    from inkmotion.fitting.quality import criterion
-
+    """Keep the stage's ``result`` if it was refitted from an edit that improved the criterion
+    (:func:`inkmotion.fitting.quality.criterion`: ``quality`` is the Chamfer (mean, max) px, and
+    the T_end ratio where the time is weighed) or from no edit; otherwise roll back to the last
+    kept result. Returns the result to go on from and whether it rolled back; ``entry`` (the
+    stage's record) says what was decided and why. An edit that improves the criterion by less
+    than its targets must gain is kept all the same when it *rescues* the fit: brings the worst
+    miss (or, with ``rescue_mean``, the mean distance, when rolling back would end the edits: at
+    the ``final`` stage, or with no other way of editing left; where the time is weighed, at
+    once) from above its goal to the rule's ``rescue_margin`` below it, and the fit's accuracy
+    (the criterion without the time) is better. With ``unpinned``, an edit whose refit leaves
+    more overlaps Δt on a clamp bound than the fit before it is rolled back unless it made a
+    poor fit good: sub-movements that start as nearly at once as the model allows are more
+    targets than the motion has movements (the plan is no longer a model of it). With
+    ``unpinned_end``, the ``final`` stage, when it only went on from the last kept result (no
+    edit), is undone the same way: a pair that slid onto the floor after the last edit was
+    judged (the new target of a kept edit drifting to start with its neighbour) is not left in
+    the result, and the result it went on from is returned instead."""
     if edits.pending is None or edits.kept is None or edits.quality is None:
         pins = (_new_pins(result, edits.kept)
                 if unpinned_end and final and edits.kept is not None else 0)
@@ -261,8 +265,7 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
             return edits.kept, True
         edits.kept, edits.quality = result, quality
         return result, False
-    before = criterion(*edits.quality, size)
-    after = criterion(*quality, size)
+    before, after = _criterion(edits.quality, size), _criterion(quality, size)
     entry["edit"] = dict(edits.pending)
     entry["criterion_before"], entry["criterion_after"] = before, after
     needed = rule.gain_per_target * edits.pending.get("inserted", 0)
@@ -276,21 +279,22 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     goals = [("worst miss", 1, GOAL_MAX_PX * scale)]  # (name, its index in quality, goal)
     retry = edits.pending.get("merged", 0) > 0 or (rule.retry_sequential
                                                    and not edits.sequential)
-    if rescue_mean and (final or not retry):
+    # where time is weighed, the retry (each new target with time of its own) is slower:
+    # the mean is rescued at once rather than by a slower plan later
+    if rescue_mean and (final or not retry or len(quality) > 2):
         goals.append(("mean distance", 0, GOAL_MEAN_PX * scale))
     met = [(name, goal) for name, k, goal in goals
            if rule.rescue_margin > 0 and edits.quality[k] > goal
            and quality[k] <= goal * (1 - rule.rescue_margin)]
-    rescued = bool(met) and after < before
+    rescued = bool(met) and _criterion(quality[:2], size) < _criterion(edits.quality[:2], size)
     pins = _new_pins(result, edits.kept) if unpinned else 0
     pinned = pins > 0
     if pinned and not (rescued and any(name == "worst miss" for name, _ in met)):
         gained = rescued = False  # a denser plan than the motion, for less than a poor fit
     if gained or rescued:
         entry["edit"]["kept"] = True
-        entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} (Chamfer "
-                                f"{edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
-                                f"{quality[0]:.2f}/{quality[1]:.1f} px)"
+        entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} "
+                                f"({_figures(edits.quality, quality)})"
                                 + ("" if gained else
                                    f", the {met[0][0]} now within the {met[0][1]:.1f}-px "
                                    "goal"))
@@ -298,8 +302,7 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
         return result, False
     entry["edit"]["kept"] = False
     entry["edit"]["why"] = (f"rolled back: the criterion went {before:.3f} → {after:.3f} "
-                            f"(Chamfer {edits.quality[0]:.2f}/{edits.quality[1]:.1f} → "
-                            f"{quality[0]:.2f}/{quality[1]:.1f} px)"
+                            f"({_figures(edits.quality, quality)})"
                             + (f", less than the {needed + rule.margin:.2f} its "
                                f"{edits.pending['inserted']} new target(s) must gain"
                                if needed and after < before and not pinned else "")
@@ -312,6 +315,23 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, float], size:
     else:
         edits.frozen = True
     return edits.kept, True
+
+
+def _criterion(quality: tuple[float, ...], size: float) -> float:
+    """The criterion of a stage's ``quality``: Chamfer (mean, max) px, and the T_end ratio
+    where the time is weighed (:func:`inkmotion.fitting.quality.criterion`)."""
+    from inkmotion.fitting.quality import criterion
+
+    return criterion(quality[0], quality[1], size, quality[2] if len(quality) > 2 else None)
+
+
+def _figures(before: tuple[float, ...], after: tuple[float, ...]) -> str:
+    """'Chamfer 0.49/4.1 → 0.27/3.5 px' of two qualities, and ', T_end ratio 0.77 → 0.86'
+    where they weigh the time."""
+    text = f"Chamfer {before[0]:.2f}/{before[1]:.1f} → {after[0]:.2f}/{after[1]:.1f} px"
+    if len(before) > 2 and len(after) > 2:
+        text += f", T_end ratio {before[2]:.2f} → {after[2]:.2f}"
+    return text
 
 
 def _new_pins(result: FitResult, before: FitResult) -> int:
@@ -399,7 +419,7 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
     """One drawing's staged fit (module docstring) as a generator: it yields each stage's
     optimisation as a :class:`~inkmotion.fitting.optimise.Request`, is sent the stage's
     :class:`FitResult`, and returns the :class:`StagedFit`."""
-    from inkmotion.fitting.quality import chamfer_of
+    from inkmotion.fitting.quality import chamfer_of, t_end_ratio
 
     rollback = refine.mode == "default" and refine.rollback
     if refine.mode == "auto":
@@ -475,9 +495,15 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
         if refine.mode == "auto" or not last or rollback:
             mean, worst = chamfer_of(strokes, result.plans)
             entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
+        quality: tuple[float, ...] = (mean, worst) if "chamfer_mean_px" in entry else ()
+        if rollback and refine.weigh_time:
+            ratio = t_end_ratio(path_moves, first.initial_t_end, result.final_t_end)
+            if math.isfinite(ratio):  # no path of 2+ sub-movements: no time to weigh
+                entry["t_end_ratio"] = ratio
+                quality += (ratio,)
         record.append(entry)
         if rollback:
-            result, rolled = _judge(edits, result, (mean, worst), size, entry, refine.rule,
+            result, rolled = _judge(edits, result, quality, size, entry, refine.rule,
                                     rescue_mean=refine.rescue_mean, final=last,
                                     unpinned=refine.unpinned,
                                     unpinned_end=refine.unpinned_end)

@@ -50,7 +50,8 @@ class FitParams(OptimisationParams):
     on the trace's worst misses; 6: 600 steps decaying to 0.1; 7: edits blind to where
     the motion strays from the ink; 8: only a worst miss brought within its goal keeps an
     edit that gains less than its targets must, and an edit that pins overlaps on a clamp
-    bound may be kept)."""
+    bound may be kept; 9: a last stage that pins overlaps is kept; 10: edits judged by
+    accuracy alone, not by the time they add)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -103,6 +104,10 @@ class FitParams(OptimisationParams):
                                "last kept plan (no edit) and left more overlaps Δt on a "
                                "clamp bound: the plan it went on from is the result.",
                                earlier={9: False})
+    weigh_time: bool = param(True, "Judge a plan edit by the time it adds too: the "
+                             "criterion it must lower is mean/0.6 + max/8 px (at 350 px) + "
+                             "the T_end ratio/0.65, so a target that slows the motion buys "
+                             "that time back in accuracy.", earlier={10: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -137,7 +142,8 @@ class FitParams(OptimisationParams):
                               max_error=self.max_error, rollback=self.rollback,
                               protect_corners=self.keep_corners, sparsity=self.sparsity,
                               strays=self.strays, rescue_mean=self.rescue_mean,
-                              unpinned=self.unpinned, unpinned_end=self.unpinned_end)
+                              unpinned=self.unpinned, unpinned_end=self.unpinned_end,
+                              weigh_time=self.weigh_time)
 
 
 def target_count(targets: str) -> int | None:
@@ -458,11 +464,11 @@ def pinned_warning(pinned: list[tuple[int, int, float]], plans: list, p: FitPara
 
 def t_end_ratio_multi(staged: Any) -> float:
     """T_end after / before the fit over the paths that began with 2 or more sub-movements
-    (a single lognormal has no overlap to shorten); NaN when there is none."""
-    multi = [i for i, m in enumerate(staged.initial_path_moves) if m >= 2]
-    before = sum(staged.initial_t_end[i] for i in multi)
-    after = sum(staged.result.final_t_end[i] for i in multi)
-    return after / before if before > 0 else float("nan")
+    (:func:`inkmotion.fitting.quality.t_end_ratio`); NaN when there is none."""
+    from inkmotion.fitting.quality import t_end_ratio
+
+    return t_end_ratio(staged.initial_path_moves, staged.initial_t_end,
+                       staged.result.final_t_end)
 
 
 def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:
