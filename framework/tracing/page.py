@@ -131,9 +131,10 @@ def find_page(grey: np.ndarray, widest: float) -> np.ndarray | None:
     if surround > DARKER * sheet_tone:
         return None
     dark = 1.0 - calm / np.maximum(paper, 1e-3) > CROSSING_INK
-    if _crossings(dark, sheet, reach) > CROSSINGS:
+    bands = _deep_in_and_far_out(sheet, reach)
+    if _crossings(dark, *bands) > CROSSINGS:
         return None
-    if _surround_within(calm < 0.5 * (surround + sheet_tone), sheet, reach) > SOLID:
+    if _surround_within(calm < 0.5 * (surround + sheet_tone), *bands) > SOLID:
         return None
     page = np.zeros((h, w), np.uint8)
     cv2.fillPoly(page, [np.round(hull.reshape(-1, 2) * f).astype(np.int32)], 1)
@@ -218,34 +219,36 @@ def _either_side(hull: np.ndarray, reach: float, shape: tuple[int, int]
     return inn[seen][:, ::-1].T, out[seen][:, ::-1].T
 
 
-def _surround_within(surround: np.ndarray, sheet: np.ndarray, reach: float) -> float:
-    """The share of the interior of ``sheet`` (H, W) uint8, the filled hull, more than
-    ``reach`` px inside its outline, that has the surround's tone (``surround``, (H, W)
-    bool) and is joined to the surround beyond ``reach`` px outside it: the gaps between
-    bold strokes that a closing bridged into one light block (module docstring,
-    *solid*)."""
+def _deep_in_and_far_out(sheet: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) bool each: the places more than ``reach`` px inside the outline of ``sheet``
+    (H, W) uint8, the filled hull, and those more than ``reach`` px outside it."""
     import cv2
 
     r = max(1, int(round(reach)))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    deep_in = cv2.erode(sheet, disc).astype(bool)
-    far_out = ~cv2.dilate(sheet, disc).astype(bool)
+    return cv2.erode(sheet, disc).astype(bool), ~cv2.dilate(sheet, disc).astype(bool)
+
+
+def _surround_within(surround: np.ndarray, deep_in: np.ndarray, far_out: np.ndarray
+                     ) -> float:
+    """The share of a page's interior ``deep_in`` (:func:`_deep_in_and_far_out`) that has
+    the surround's tone (``surround``, (H, W) bool) and is joined to the surround
+    ``far_out``: the gaps between bold strokes that a closing bridged into one light block
+    (module docstring, *solid*)."""
+    import cv2
+
     _, labels = cv2.connectedComponents(surround.astype(np.uint8), connectivity=8)
     joined = np.unique(labels[far_out & surround])
     within = deep_in & np.isin(labels, joined[joined > 0])
     return float(within.sum()) / max(int(deep_in.sum()), 1)
 
 
-def _crossings(dark: np.ndarray, sheet: np.ndarray, reach: float) -> int:
-    """How many pieces of ink (``dark``, (H, W) bool) reach both ``reach`` px inside the
-    outline of ``sheet`` (H, W) uint8, the filled hull, and ``reach`` px outside it: lines
-    that run on across it."""
+def _crossings(dark: np.ndarray, deep_in: np.ndarray, far_out: np.ndarray) -> int:
+    """How many pieces of ink (``dark``, (H, W) bool) reach both a page's interior
+    ``deep_in`` and the surround ``far_out`` (:func:`_deep_in_and_far_out`): lines that
+    run on across its outline."""
     import cv2
 
-    r = max(1, int(round(reach)))
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    deep_in = cv2.erode(sheet, disc).astype(bool)
-    far_out = ~cv2.dilate(sheet, disc).astype(bool)
     _, labels = cv2.connectedComponents(dark.astype(np.uint8), connectivity=8)
     across = np.intersect1d(np.unique(labels[deep_in & dark]),
                             np.unique(labels[far_out & dark]))
