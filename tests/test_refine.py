@@ -204,6 +204,32 @@ def test_an_edit_pays_for_the_time_it_adds_from_spec_11_on() -> None:
         assert ("T_end ratio 0.55 → " in entry["edit"]["why"]) is (len(before) > 2)
 
 
+def test_an_edit_that_frees_a_pinned_overlap_is_kept_where_time_is_weighed() -> None:
+    """The kept plan ended its stage with an overlap on the 0.1 floor (the initialiser's own
+    plan: no edit put it there). An edit whose refit frees it and draws more accurately is
+    kept where the time is weighed (spec 11), even when it gains less than its targets
+    must: no Δt on a bound is a goal, as the mean and the worst miss are. Less accurate,
+    or under spec 10 (no time weighed), it is judged by its gain alone: rolled back."""
+    from inkmotion.fitting.optimise import FitResult
+    from inkmotion.fitting.stages import SPARSITY, _Edits, _judge
+
+    free = plan_through([[0, 0], [10, 5], [100, 0], [100, 50]], delta_t=0.5)
+    pinned = plan_through([[0, 0], [100, 0], [100, 50]], delta_t=0.5)
+    pinned.delta_t[1] = 0.1  # float64 0.1: exactly the bound
+    result = lambda plans: FitResult(plans, {}, {}, [], [], torch.zeros(1, 1),  # noqa: E731
+                                     0.0, 1)
+    for before, after, kept in (((0.30, 6.8, 0.55), (0.28, 6.0, 0.56), True),
+                                ((0.30, 6.8, 0.55), (0.31, 6.9, 0.50), False),  # less exact
+                                ((0.30, 6.8), (0.28, 6.0), False)):  # spec 10
+        edits = _Edits()
+        _judge(edits, result([pinned]), before, 350.0, {}, SPARSITY["hand"])
+        edits.pending = {"inserted": 3, "merged": 0}
+        entry: dict = {}
+        _judge(edits, result([free]), after, 350.0, entry, SPARSITY["hand"], unpinned=True)
+        assert entry["edit"]["kept"] is kept, (before, after)
+        assert ("1 overlap(s) no longer on a clamp bound" in entry["edit"]["why"]) is kept
+
+
 def test_an_edit_that_pins_more_overlaps_on_their_floor_is_rolled_back_from_spec_9_on(
 ) -> None:
     """A hook's new target that gains its bar but whose sub-movement ends up starting with

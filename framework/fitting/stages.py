@@ -244,14 +244,15 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: f
     miss (or, with ``rescue_mean``, the mean distance, when rolling back would end the edits: at
     the ``final`` stage, or with no other way of editing left; where the time is weighed, at
     once) from above its goal to the rule's ``rescue_margin`` below it, and the fit's accuracy
-    (the criterion without the time) is better. With ``unpinned``, an edit whose refit leaves
-    more overlaps Δt on a clamp bound than the fit before it is rolled back unless it made a
-    poor fit good: sub-movements that start as nearly at once as the model allows are more
-    targets than the motion has movements (the plan is no longer a model of it). With
-    ``unpinned_end``, the ``final`` stage, when it only went on from the last kept result (no
-    edit), is undone the same way: a pair that slid onto the floor after the last edit was
-    judged (the new target of a kept edit drifting to start with its neighbour) is not left in
-    the result, and the result it went on from is returned instead."""
+    (the criterion without the time) is better; where the time is weighed, also when it frees
+    overlaps Δt the kept plan had on a clamp bound, and its accuracy is better. With
+    ``unpinned``, an edit whose refit leaves more overlaps Δt on a clamp bound than the fit
+    before it is rolled back unless it made a poor fit good: sub-movements that start as nearly
+    at once as the model allows are more targets than the motion has movements (the plan is no
+    longer a model of it). With ``unpinned_end``, the ``final`` stage, when it only went on from
+    the last kept result (no edit), is undone the same way: a pair that slid onto the floor
+    after the last edit was judged (the new target of a kept edit drifting to start with its
+    neighbour) is not left in the result, and the result it went on from is returned instead."""
     if edits.pending is None or edits.kept is None or edits.quality is None:
         pins = (_new_pins(result, edits.kept)
                 if unpinned_end and final and edits.kept is not None else 0)
@@ -281,23 +282,29 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: f
                                                    and not edits.sequential)
     # where time is weighed, the retry (each new target with time of its own) is slower:
     # the mean is rescued at once rather than by a slower plan later
-    if rescue_mean and (final or not retry or len(quality) > 2):
+    timed = len(quality) > 2
+    if rescue_mean and (final or not retry or timed):
         goals.append(("mean distance", 0, GOAL_MEAN_PX * scale))
     met = [(name, goal) for name, k, goal in goals
            if rule.rescue_margin > 0 and edits.quality[k] > goal
            and quality[k] <= goal * (1 - rule.rescue_margin)]
-    rescued = bool(met) and _criterion(quality[:2], size) < _criterion(edits.quality[:2], size)
-    pins = _new_pins(result, edits.kept) if unpinned else 0
-    pinned = pins > 0
+    accurate = _criterion(quality[:2], size) < _criterion(edits.quality[:2], size)
+    rescued = bool(met) and accurate
+    pins = _new_pins(result, edits.kept) if unpinned or timed else 0
+    pinned = unpinned and pins > 0
+    # where time is weighed, the goal of no overlap on a clamp bound is one to rescue too:
+    # an edit that frees overlaps the kept plan had pinned, and draws more accurately
+    freed = -pins if timed and pins < 0 and accurate else 0
     if pinned and not (rescued and any(name == "worst miss" for name, _ in met)):
         gained = rescued = False  # a denser plan than the motion, for less than a poor fit
-    if gained or rescued:
+    if gained or rescued or freed:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} "
                                 f"({_figures(edits.quality, quality)})"
                                 + ("" if gained else
                                    f", the {met[0][0]} now within the {met[0][1]:.1f}-px "
-                                   "goal"))
+                                   "goal" if rescued else
+                                   f", {freed} overlap(s) no longer on a clamp bound"))
         edits.kept, edits.quality = result, quality
         return result, False
     entry["edit"]["kept"] = False
