@@ -107,7 +107,9 @@ class FitParams(OptimisationParams):
     weigh_time: bool = param(True, "Judge a plan edit by the time it adds too: the "
                              "criterion it must lower is mean/0.6 + max/8 px (at 350 px) + "
                              "the T_end ratio/0.65, so a target that slows the motion buys "
-                             "that time back in accuracy.", earlier={10: False})
+                             "that time back in accuracy; an edit that frees overlaps Δt "
+                             "from a clamp bound and draws more accurately is kept.",
+                             earlier={10: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
