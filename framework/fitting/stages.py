@@ -502,14 +502,14 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
         if refine.mode == "auto" or not last or rollback:
             mean, worst = chamfer_of(strokes, result.plans)
             entry.update(chamfer_mean_px=mean, chamfer_max_px=worst)
-        quality: tuple[float, ...] = (mean, worst) if "chamfer_mean_px" in entry else ()
-        if rollback and refine.weigh_time:
-            ratio = t_end_ratio(path_moves, first.initial_t_end, result.final_t_end)
+        record.append(entry)
+        if rollback:
+            quality: tuple[float, ...] = (mean, worst)
+            ratio = (t_end_ratio(path_moves, first.initial_t_end, result.final_t_end)
+                     if refine.weigh_time else math.nan)
             if math.isfinite(ratio):  # no path of 2+ sub-movements: no time to weigh
                 entry["t_end_ratio"] = ratio
                 quality += (ratio,)
-        record.append(entry)
-        if rollback:
             result, rolled = _judge(edits, result, quality, size, entry, refine.rule,
                                     rescue_mean=refine.rescue_mean, final=last,
                                     unpinned=refine.unpinned,
