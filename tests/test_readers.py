@@ -244,6 +244,27 @@ def test_svg_basic_shapes_in_a_rotated_group_are_drawn_where_shown(tmp_path: Pat
         np.testing.assert_allclose(np.hypot(x / 2, y), 20, rtol=1e-3)
 
 
+def test_svg_shapes_that_paint_nothing_are_not_drawn(tmp_path: Path):
+    """A construction line with no stroke or fill, a guide of opacity 0 (on itself or on
+    its group) and a fully transparent stroke are not part of the drawing (they were
+    fitted like the lines); a shape with only a fill is still an outline to draw."""
+    svg = tmp_path / "guides.svg"
+    svg.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 100">'
+        '<path d="M 10 10 L 90 10" stroke="black" fill="none"/>'
+        '<path d="M 10 20 L 90 20" stroke="none" fill="none"/>'
+        '<path d="M 10 30 L 90 30" stroke="black" opacity="0"/>'
+        '<g opacity="0"><path d="M 10 40 L 90 40" stroke="black"/></g>'
+        '<path d="M 10 50 L 90 50" stroke="black" stroke-opacity="0" fill="none"/>'
+        '<rect x="10" y="60" width="80" height="10" fill="red"/></svg>')
+    starts = [s[0].tolist() for s in read_svg(str(svg)).strokes]
+    assert starts == [[10, 10], [10, 60]]
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 100">'
+                   '<path d="M 10 20 L 90 20" stroke="none" fill="none"/></svg>')
+    with pytest.raises(InputError, match="every shape of the SVG is invisible"):
+        read_svg(str(svg))
+
+
 def test_flatten_segment_tolerance():
     def circle(ts):
         return np.stack([np.cos(np.pi * ts), np.sin(np.pi * ts)], axis=1)

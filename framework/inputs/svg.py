@@ -5,9 +5,10 @@ Parsing, units, ``viewBox`` and nested ``transform`` attributes are handled by
 `svgelements <https://github.com/meerk40t/svgelements>`_ (``SVG.parse`` reifies every
 transform into the geometry). Every visible shape (``path``, ``polyline``, ``polygon``,
 ``line``, ``rect``, ``circle``, ``ellipse``, shapes reached through ``use``) becomes a
-path; each subpath (a ``M`` … run) becomes one stroke. Closed subpaths end at their start
-point. A drawing whose every shape is a filled area with no stroke (a logo, text turned
-into paths) is drawn along its outlines, and ``meta["notes"]`` says so and how to fit the
+path (a shape that paints nothing, no stroke or fill or an opacity of 0, is left out);
+each subpath (a ``M`` … run) becomes one stroke. Closed subpaths end at their start point.
+A drawing whose every shape is a filled area with no stroke (a logo, text turned into
+paths) is drawn along its outlines, and ``meta["notes"]`` says so and how to fit the
 centre lines instead (its picture, traced). Curves (quadratic, cubic, elliptical arcs)
 are flattened by adaptive subdivision until every interval's midpoint lies within ``tol``
 of its chord, where ``tol`` is ``FLATNESS`` times the drawing's bounding-box diagonal
@@ -40,11 +41,19 @@ def read_svg(source: str) -> Traces:
     with reader_boundary(source, "SVG", "check that it is a complete, well-formed SVG file."):
         import svgelements as se
 
-        shapes = _visible_shapes(se.SVG.parse(str(path)), se)
+        svg = se.SVG.parse(str(path))
+        shapes = _visible_shapes(svg, se)
+        hidden = not shapes and any(isinstance(el, se.Shape) for el in svg.elements())
         strokes = _flatten(shapes, se, source)
         filled = bool(shapes) and all(  # filled areas with no stroke: a logo's export
             el.fill is not None and el.fill.value is not None
             and (el.stroke is None or el.stroke.value is None) for el in shapes)
+    if not strokes and hidden:
+        raise InputError(
+            f"{source}: every shape of the SVG is invisible (no stroke or fill, or an "
+            "opacity of 0), so there is nothing to draw; give the lines to draw a stroke "
+            "colour."
+        )
     if not strokes:
         raise InputError(
             f"{source}: the SVG holds no paths or shapes, so there is nothing to draw; "
@@ -59,9 +68,28 @@ def read_svg(source: str) -> Traces:
 
 
 def _visible_shapes(svg: Any, se: Any) -> list[Any]:
-    """The shapes of ``svg`` that are drawn (``visibility`` not hidden)."""
+    """The shapes of ``svg`` that are drawn: ``visibility`` not hidden, and something
+    painted (:func:`_painted`); svgelements already leaves out ``display: none`` and
+    ``defs``."""
     return [el for el in svg.elements() if isinstance(el, se.Shape)
-            and str(el.values.get("visibility", "visible")) != "hidden"]
+            and str(el.values.get("visibility", "visible")) != "hidden" and _painted(el)]
+
+
+def _painted(shape: Any) -> bool:
+    """Whether ``shape`` paints anything: an opacity above 0, and a stroke (a colour, not
+    fully transparent, of a width above 0) or a fill (a colour, not fully transparent).
+    A shape with neither, a construction line or a hidden guide, is not part of the
+    drawing."""
+    try:
+        if float(shape.values.get("opacity", 1.0)) <= 0:
+            return False
+    except (TypeError, ValueError):
+        pass  # an opacity that is not a number: as if it were not given
+    stroke, fill = shape.stroke, shape.fill
+    stroked = (stroke is not None and stroke.value is not None and stroke.alpha > 0
+               and (shape.stroke_width is None or shape.stroke_width > 0))
+    filled = fill is not None and fill.value is not None and fill.alpha > 0
+    return stroked or filled
 
 
 def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
