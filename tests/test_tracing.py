@@ -366,6 +366,24 @@ def test_marks_above_a_long_tail_come_before_it(tmp_path: Path) -> None:
     assert strokes[0][:, 0].min() > 240 and strokes[1][:, 0].min() < 70
 
 
+def test_marks_over_the_end_of_a_line_come_after_it(tmp_path: Path) -> None:
+    # a kana with its voicing marks (べ): two small ticks over the end of the stroke, above
+    # it, so a line of their own by their height; a hand draws the character and then
+    # adds them, left tick first. A tick as small over the line's start (え's first
+    # stroke) is still drawn before it, top to bottom.
+    def kana(ticks: list[tuple[float, float]]) -> list[np.ndarray]:
+        img = line(page((420, 320)), [(40, 180), (150, 90), (380, 290)], width=8)
+        for x, y in ticks:
+            img = line(img, [(x, y), (x + 18, y + 28)], width=7)
+        return strokes_of(tmp_path, img)
+
+    body, left, right = kana([(300, 50), (340, 35)])
+    assert body[:, 0].min() < 60
+    assert 290 < left[:, 0].min() < 320 and right[:, 0].min() > 330
+    tick, body = kana([(140, 20)])
+    assert tick[:, 0].max() < 170 and body[:, 0].min() < 60
+
+
 def test_stacked_parts_of_a_letter_are_drawn_top_to_bottom(tmp_path: Path) -> None:
     # an a's hook and stem, and its bowl below reaching further left: one line, and one
     # column (they share most of their width), so the hook comes first, though the bowl's
