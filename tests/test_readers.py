@@ -298,7 +298,8 @@ def test_text_y_down_and_letter_spacing():
 
 
 @pytest.mark.parametrize(
-    ("source", "problem"), [("text:", "empty"), ("text:   ", "empty"), ("text:naïve", "no glyph")]
+    ("source", "problem"), [("text:", "empty"), ("text:   ", "empty"), ("text:naïve", "no glyph"),
+                            ("text:東京", "no glyph for '東京'")]  # the missing, as written
 )
 def test_text_errors(source, problem):
     with pytest.raises(InputError, match=problem) as err:

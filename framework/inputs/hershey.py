@@ -47,7 +47,7 @@ def render_text(
             f"{', '.join(fonts.default_font_names)}."
         )
     fonts.load_default_font(font)
-    missing = sorted({c for c in text if c not in fonts.all_glyphs})
+    missing = list(dict.fromkeys(c for c in text if c not in fonts.all_glyphs))  # as written
     if missing:
         shown = "".join(missing)
         raise InputError(
