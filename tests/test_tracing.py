@@ -324,6 +324,17 @@ def test_spurs_of_a_wide_brush_are_pruned(tmp_path: Path) -> None:
     assert np.median(s[:, 2]) == pytest.approx(9, abs=1.5)  # the brush's radius
 
 
+def test_a_broad_brush_character_is_line_art_not_a_photo(tmp_path: Path) -> None:
+    # a calligrapher's 人 with a brush 7 % of the page wide: wider than a pen's strokes
+    # may be on this page, but each runs on for many of its widths, as blots and a
+    # photo's dark things do not (three fat discs are still refused: the refusal table)
+    img = line(page((800, 800)), [(390, 110), (350, 400), (140, 690)], width=56)
+    img = line(img, [(360, 380), (520, 560), (690, 690)], width=56)
+    traces = trace_picture(read_picture(save(tmp_path, img)), varying_width=True)
+    assert len(traces.strokes) == 2
+    assert 2 * np.median(np.concatenate([s[:, 2] for s in traces.strokes])) > 45
+
+
 def test_a_dot_is_a_dab_and_comes_in_reading_order(tmp_path: Path) -> None:
     img = line(page(), [(100, 120), (100, 260)])
     cv2.circle(img, (100, 70), 6, 30, -1, cv2.LINE_AA)  # the dot of an i

@@ -50,7 +50,8 @@ Steps, each refusing bad input in one sentence (:class:`~inkmotion.errors.InputE
    fit may change (``--varying-width``) would shrink by the level to match the ink's mass.
 
 Refused: a blank page, a page that is mostly ink, and a photo that is not line art (more
-half-tones than ink, or its ink too wide for the page).
+half-tones than ink, or its ink too wide for the page: wider than a pen's, and not long
+for its width as a broad brush's strokes are).
 """
 
 from __future__ import annotations
@@ -108,6 +109,15 @@ MAX_WIDTH_SHARE = 0.05
 #: ... though strokes this wide (px) are line art on any page, however small (an icon, a
 #: character of a handwriting set at 105 px, whose crossings merge into wider ink)
 LEAST_WIDEST = 10.0
+#: ... and so is a broad brush's dark ink up to :data:`BRUSH_SHARE` of the longer side,
+#: when its pieces run on for at least :data:`BRUSH_LENGTH` of their widths
+#: (:func:`_brush_ink`): a calligrapher's character or a marker's letters, where blots, a
+#: silhouette or a photo's dark things are about as wide as they are long (three 30-px
+#: discs: 0.8; a blotchy photo: 1.2; a brush's 永 at 7 % of the page: 7.3, 心: 5.0). Ink
+#: found light on its own is held to a pen's width: a page on a dark desk, read as light
+#: ink, is a light block cut by its drawing's lines.
+BRUSH_SHARE = 0.1
+BRUSH_LENGTH = 4.0
 #: ink flush with a side of the picture without a break over at least this share of it is
 #: a stripe along the edge (step 5), when it is no thicker than a stroke and alone
 EDGE_RUN_SHARE = 0.6
@@ -597,7 +607,8 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
             f"{source}: {found}, not a line drawing (a photo is drawn by the 'abstract' "
             "kind); use a picture of line art on plain paper."))
     widest = 2.0 * float(np.percentile(depth[mask], 95))
-    if widest > band:
+    if widest > band and (found_light or widest > BRUSH_SHARE * max(mask.shape)
+                          or not _brush_ink(mask, depth)):
         read = ("light areas (read as light ink on dark paper, as most of it is dark: if "
                 "the ink is dark, crop the picture to the paper it is on)"
                 if found_light else "dark areas")
@@ -606,6 +617,23 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
             source, found, depth > band / 2, band)) or (
             f"{source}: {found} on a page this size, so this is not a line drawing; use a "
             "picture of line art (a photo is drawn by the 'abstract' kind)."))
+
+
+def _brush_ink(mask: np.ndarray, depth: np.ndarray) -> bool:
+    """Whether the ink of ``mask`` (H, W) bool runs on as a broad brush's strokes do: its
+    pieces' area over the sum of their squared widths (each piece's width twice its
+    deepest ``depth``, the distance transform) is at least :data:`BRUSH_LENGTH`, the
+    length of its strokes in widths; a blot or a blotch is about as wide as it is long."""
+    import cv2
+    from scipy import ndimage
+
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8),
+                                                               connectivity=8)
+    if count < 2:
+        return False
+    widths = 2.0 * np.asarray(ndimage.maximum(depth, labels, np.arange(1, count)))
+    area = float(stats[1:, cv2.CC_STAT_AREA].sum())
+    return area >= BRUSH_LENGTH * float((np.maximum(widths, 1.0) ** 2).sum())
 
 
 def _beside_the_page(source: str, found: str, where: np.ndarray, band: float) -> str:
