@@ -265,6 +265,20 @@ def test_svg_shapes_that_paint_nothing_are_not_drawn(tmp_path: Path):
         read_svg(str(svg))
 
 
+def test_svg_text_and_images_left_undrawn_are_named(tmp_path: Path):
+    """Text that is still text and an embedded picture are not drawn; the reader says so
+    and how to draw them (the fit carries it as a warning), so nothing vanishes silently."""
+    svg = tmp_path / "card.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 100">'
+                   '<path d="M 10 10 L 90 10" stroke="black"/>'
+                   '<text x="10" y="50">Hi</text><text x="10" y="70">there</text>'
+                   '<image x="0" y="80" width="20" height="20" href="pic.png"/></svg>')
+    (note,) = read_svg(str(svg)).meta["notes"]
+    assert note.startswith("its 2 text elements and 1 image are not drawn")
+    assert "Object to Path" in note and "file of its own" in note
+    assert "notes" not in read_svg(data("shapes.svg")).meta
+
+
 def test_flatten_segment_tolerance():
     def circle(ts):
         return np.stack([np.cos(np.pi * ts), np.sin(np.pi * ts)], axis=1)

@@ -9,7 +9,8 @@ path (a shape that paints nothing, no stroke or fill or an opacity of 0, is left
 each subpath (a ``M`` … run) becomes one stroke. Closed subpaths end at their start point.
 A drawing whose every shape is a filled area with no stroke (a logo, text turned into
 paths) is drawn along its outlines, and ``meta["notes"]`` says so and how to fit the
-centre lines instead (its picture, traced). Curves (quadratic, cubic, elliptical arcs)
+centre lines instead (its picture, traced); it names text that is still text and embedded
+pictures too, which are not drawn. Curves (quadratic, cubic, elliptical arcs)
 are flattened by adaptive subdivision until every interval's midpoint lies within ``tol``
 of its chord, where ``tol`` is ``FLATNESS`` times the drawing's bounding-box diagonal
 (scale-free, so the same file at any size flattens to the same polyline shape).
@@ -48,6 +49,7 @@ def read_svg(source: str) -> Traces:
         filled = bool(shapes) and all(  # filled areas with no stroke: a logo's export
             el.fill is not None and el.fill.value is not None
             and (el.stroke is None or el.stroke.value is None) for el in shapes)
+        left_out = _left_out(svg, se)
     if not strokes and hidden:
         raise InputError(
             f"{source}: every shape of the SVG is invisible (no stroke or fill, or an "
@@ -60,11 +62,32 @@ def read_svg(source: str) -> Traces:
             "convert text and images to paths first."
         )
     meta: dict[str, Any] = {"format": "svg"}
+    notes = []
     if filled:
-        meta["notes"] = ["its shapes are filled areas with no stroke, so the motion follows "
-                         "their outlines; to draw their centre lines instead, export the "
-                         "drawing as a PNG and give that"]
+        notes.append("its shapes are filled areas with no stroke, so the motion follows "
+                     "their outlines; to draw their centre lines instead, export the "
+                     "drawing as a PNG and give that")
+    texts, images = left_out
+    if texts or images:
+        shown = " and ".join(f"{n} {what}{'s' if n > 1 else ''}" for what, n in
+                             (("text element", texts), ("image", images)) if n)
+        advice = (["convert its text to paths to draw it (in Inkscape: Path > Object to "
+                   "Path)"] if texts else []) + (
+            ["give an embedded picture as a file of its own to trace it"] if images else [])
+        notes.append(f"its {shown} {'is' if texts + images == 1 else 'are'} not drawn, "
+                     f"only its paths and shapes; {' and '.join(advice)}")
+    if notes:
+        meta["notes"] = notes
     return Traces(strokes, source=source, meta=meta).validated()
+
+
+def _left_out(svg: Any, se: Any) -> tuple[int, int]:
+    """How many text elements (text that is still text) and embedded pictures ``svg``
+    shows that the reader does not draw."""
+    shown = [el for el in svg.elements()
+             if str(getattr(el, "values", {}).get("visibility", "visible")) != "hidden"]
+    return (sum(isinstance(el, se.Text) for el in shown),
+            sum(isinstance(el, se.Image) for el in shown))
 
 
 def _visible_shapes(svg: Any, se: Any) -> list[Any]:
