@@ -203,6 +203,46 @@ def test_plot_speed_profiles_writes_a_png(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def _gml(path: Path, strokes: list[list[tuple[float, float, float]]]) -> str:
+    """A GML file of ``strokes`` of (x, y, t) points."""
+    body = "".join("<stroke>" + "".join(f"<pt><x>{x}</x><y>{y}</y><t>{t}</t></pt>"
+                                        for x, y, t in st) + "</stroke>" for st in strokes)
+    path.write_text(f'<gml spec="1.0"><tag><drawing>{body}</drawing></tag></gml>')
+    return str(path)
+
+
+def test_time_stamps_that_do_not_advance_give_no_recorded_speed(tmp_path):
+    """Some exporters stamp every point 0, or their clocks run backwards: such a stroke
+    has no recorded speed, so it is left out of the comparison (and a recording with no
+    other is said to have none), not a ValueError at the end of a fit."""
+    import torch
+
+    from inkmotion.initialisers.dce import dce
+    from inkmotion.kinds.read import read_input
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+
+    wave = [(0.1 + 0.01 * i, 0.5 + 0.1 * math.sin(i / 5)) for i in range(60)]
+    low = [(x, y + 0.3) for x, y in wave]
+
+    def agreement(name: str, stamps: list[list[float]]) -> dict:
+        source = _gml(tmp_path / name, [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
+                                        for st, ts in zip((wave, low), stamps, strict=True)])
+        traces = read_input(source).fit_to_canvas(350)
+        plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
+        drawing = Drawing((traces.width, traces.height), plans)
+        return H.human_agreement_of_traces(read_input(source), drawing,
+                                           tmp_path / f"{name}.png", source)
+
+    assert not H.advances(np.zeros(5)) and not H.advances(np.linspace(1, 0, 5))
+    assert H.advances(np.array([0.0, 0.0, 0.1]))
+    zero = agreement("zero.gml", [[0.0] * 60, [0.0] * 60])
+    assert not zero["has_times"] and "do not advance" in zero["note"]
+    backwards = agreement("back.gml", [list(np.linspace(1, 0, 60))] * 2)
+    assert not backwards["has_times"]
+    one = agreement("one.gml", [[0.0] * 60, list(np.linspace(1.2, 2.4, 60))])
+    assert one["has_times"] and one["strokes_paired"] == 1 and one["strokes_untimed"] == 1
+
+
 @pytest.mark.skipif(not GML.is_dir(), reason="the shared tag folder is absent")
 def test_real_tags_carry_times_and_agree_with_a_plan(tmp_path):
     import torch

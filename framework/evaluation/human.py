@@ -74,6 +74,14 @@ def time_anchors(arc: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return t[starts], s
 
 
+def advances(t: np.ndarray) -> bool:
+    """Whether the times ``t`` (k,) of a stroke reach at least two distinct stamps in
+    order (:func:`time_anchors`): a stroke stamped all at one time, or backwards, has no
+    recorded speed."""
+    t = np.asarray(t, dtype=np.float64)
+    return len(t) > 1 and bool((t[1:] > np.maximum.accumulate(t)[:-1]).any())
+
+
 def recorded_speed(stroke: np.ndarray, t: np.ndarray, *, rate: float = 200.0,
                    smooth_s: float = 0.03,
                    unit: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -238,9 +246,15 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
     times, unit = times_in_seconds(traces.meta["t"])
     if [len(t) for t in times] != [len(s) for s in traces.strokes]:
         raise InputError(f"{source}: the time stamps do not line up with the points.")
+    if not any(advances(t) for t in times):
+        return {"has_times": False,
+                "note": f"{source}: its time stamps do not advance along any stroke (all "
+                        "the same, or running backwards), so there is no recorded speed to "
+                        "compare with."}
     samples = [sample(plan) for plan in drawing.plans]
     index = _pair(traces.strokes, [s.positions for s in samples])
-    kept = [i for i, j in enumerate(index) if j >= 0]
+    paired = [i for i, j in enumerate(index) if j >= 0]
+    kept = [i for i in paired if advances(times[i])]  # a stroke stamped at one time has no speed
     recorded = [(traces.strokes[i], times[i]) for i in kept]
     fit = [(samples[index[i]].positions, samples[index[i]].speed) for i in kept]
     result = human_agreement(recorded, fit, **options)
@@ -250,4 +264,5 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
                 for p, t in recorded]
     plot_speed_profiles(png, profiles, [(arc_length(p), s) for p, s in fit])
     return {"has_times": True, "time_unit": unit, "strokes_paired": len(kept),
+            "strokes_untimed": len(paired) - len(kept),
             "plot": Path(png).name, **result}
