@@ -1111,6 +1111,21 @@ def test_trace_of_a_bad_picture_writes_nothing(tmp_path: Path) -> None:
     assert not (tmp_path / "out").exists()
 
 
+def test_tracing_strokes_already_says_to_fit_them(tmp_path: Path) -> None:
+    # an SVG, a GML or text: is a drawing's strokes already: the refusal names the reader
+    # and the command that fits it (it said "not a picture this can read")
+    from inkmotion.kinds.read import trace_input
+    from inkmotion.plugin_host import plugin
+
+    svg = tmp_path / "drawing.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg"><path d="M 0 0 L 9 9" '
+                   'stroke="black"/></svg>')
+    for source, reader in ((str(svg), "svg"), ("text:hi", "text")):
+        with pytest.raises(InputError, match=f"the '{reader}' reader reads it") as err:
+            trace_input(source, plugin("tracer", "skeleton"))
+        assert str(err.value).endswith(f"inkmotion run fit {source}.")
+
+
 def test_unknown_tracer_is_refused(tmp_path: Path) -> None:
     done = cli("trace", "sample:brush-scan", "--tracer", "nope", "--out", str(tmp_path / "o"))
     assert done.returncode != 0 and "nope" in done.stderr

@@ -51,10 +51,20 @@ def trace_input(source: str, tracer: Any, *, invert: bool = False,
     ``tracer`` plugin object, and the decoded :class:`~inkmotion.tracing.Picture`: decoded
     (:func:`inkmotion.tracing.read_picture`, ``invert`` forcing light ink on dark paper),
     traced with ``options``, the whole time recorded as
-    ``meta["extraction"]["seconds_with_decoding"]``."""
+    ``meta["extraction"]["seconds_with_decoding"]``. A source that a reader takes as
+    strokes already (an SVG, a GML, ``text:``) is refused: there is nothing to trace."""
     from inkmotion.tracing import read_picture
+    from inkmotion.tracing.picture import is_picture
 
     path = locate(source)
+    if not is_picture(path):  # strokes already (an SVG, a GML, text:): nothing to trace
+        readers = host().plugins("reader")
+        taker = next((name for name in sorted(readers) if readers[name].can_read(path)),
+                     None)
+        if taker is not None:
+            raise InputError(f"{source}: a drawing's strokes already (the '{taker}' reader "
+                             f"reads it), not a picture to trace; fit it as it is: "
+                             f"inkmotion run fit {source}.")
     start = time.perf_counter()
     picture = read_picture(path, invert=invert)
     traces = tracer(picture, varying_width=varying_width, **options)
