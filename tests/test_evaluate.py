@@ -51,6 +51,11 @@ def test_evaluate_writes_the_table_and_plots(tmp_path: Path) -> None:
     res = inkmotion("evaluate", str(fit / "plan.json"), "--path", "0", "--out", str(one))
     assert res.returncode == 0, res.stderr
     assert json.loads((one / "evaluation.json").read_text())["path"] == 0
+    # a --recording without time stamps has no speeds to compare: said, not silent
+    res = inkmotion("evaluate", str(fit / "plan.json"), "--recording", "text:hi", "--out",
+                    str(tmp_path / "untimed"), "--no-record")
+    assert res.returncode == 0, res.stderr
+    assert "warning: text:hi: the points carry no time stamps" in res.stderr
 
 
 def test_msj_at_equal_duration_removes_the_time_scaling() -> None:

@@ -82,7 +82,9 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     plot_minima(job.folder / "minima.png", sigma.position, 1.0 / p.rate, drawing.canvas)
     print_table(table, ratios, f"evaluation, {len(indices)} path(s)")
     metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
-    return {**doc, "metrics": metrics}
+    human = doc.get("human") or {}
+    warnings = [human["note"]] if not human.get("has_times", True) else []
+    return {**doc, "metrics": metrics, **({"warnings": warnings} if warnings else {})}
 
 
 def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,
