@@ -982,6 +982,19 @@ def test_invert_forces_light_ink_on_dark_paper(tmp_path: Path) -> None:
     path = save(tmp_path, line(img, [(60, 150), (340, 150)], ink=230))
     assert read_picture(path).inverted and read_picture(path, invert=True).inverted
     assert len(trace_picture(read_picture(path, invert=True)).strokes) == 1
+    assert not any("--invert" in n for n in read_picture(path, invert=True).notes)
+
+
+def test_invert_on_dark_ink_is_said_and_its_refusals_say_to_leave_it_out(
+        tmp_path: Path) -> None:
+    # --invert on dark ink traces the paper between the strokes: said, as a note the fit
+    # prints; and a refusal under --invert says to leave it out, not to pass it
+    ladder = line(line(page(), [(60, 140), (340, 140)]), [(60, 160), (340, 160)])
+    said = [n for n in read_picture(save(tmp_path, ladder, "two.png"), invert=True).notes
+            if "--invert" in n]  # the paper between two dark lines, read as a light one
+    assert said and "leave --invert out" in said[0]
+    with pytest.raises(InputError, match="leave --invert out for dark ink"):
+        read_picture(save(tmp_path, line(page(), [(60, 150), (340, 150)])), invert=True)
 
 
 def test_a_huge_picture_is_reduced_and_said(tmp_path: Path) -> None:

@@ -361,6 +361,10 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
     """Steps 2–6 of the module docstring on a decoded ``grey`` picture."""
     notes = list(notes)
     page, inverted = _page_and_polarity(grey, invert)
+    if invert and not _page_and_polarity(grey, False)[1]:
+        notes.append("--invert reads it as light ink on dark paper, but it looks like dark "
+                     "ink on light paper (then the ink traced is the paper between the "
+                     "strokes); leave --invert out if its ink is dark")
     if inverted:
         grey = 1.0 - grey
         if not invert:
@@ -388,7 +392,7 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
                      "shadow) was left out; crop the picture if it is part of the drawing")
     # each ink pixel's distance to the paper, read by the line-art check and the ink level
     depth = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    _check_line_art(source, ink, mask, depth, inverted and not invert, ruling)
+    _check_line_art(source, ink, mask, depth, inverted and not invert, ruling, invert)
     return Picture(source, grey, ink, mask, scale, inverted, notes, ink_level(ink, depth),
                    page, ruling)
 
@@ -576,11 +580,14 @@ def _tidy(raw: np.ndarray) -> np.ndarray:
 
 
 def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.ndarray,
-                    found_light: bool = False, ruling: np.ndarray | None = None) -> None:
+                    found_light: bool = False, ruling: np.ndarray | None = None,
+                    asked_light: bool = False) -> None:
     """Refuse a blank page, a page of mostly ink, and a picture that is not line art
     (``depth``: the mask's distance transform); ``found_light``: the page was read as
     light ink on its own (then a blank page says so, and what to do if the ink is
-    dark); ``ruling``: the bands of the paper's ruled lines, no half-tones."""
+    dark); ``ruling``: the bands of the paper's ruled lines, no half-tones;
+    ``asked_light``: ``--invert`` asked for light ink (then a refusal says to leave it
+    out if the ink is dark, not to pass it)."""
     import cv2
 
     share = float(mask.mean())
@@ -589,12 +596,17 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
             raise _Blank(found_light, f"{source}: no ink was found on this page, read as "
                          "light ink on dark paper (most of it is dark); if the ink is dark, "
                          "crop the picture to the paper it is on.")
+        if asked_light:
+            raise _Blank(found_light, f"{source}: no light ink was found on this page, read "
+                         "as light ink on dark paper as --invert asks; check the file, or "
+                         "leave --invert out for dark ink.")
         raise _Blank(found_light, f"{source}: no ink was found on this page (it looks blank); "
                      "check the file, or pass --invert for light ink on dark paper.")
     if share > MAX_INK_SHARE:
         raise InputError(f"{source}: {100 * share:.0f} % of the page is ink, which is not a line "
-                         "drawing; crop it to the drawing, or pass --invert if the paper is "
-                         "the dark part.")
+                         "drawing; crop it to the drawing, or " + (
+                             "leave --invert out if the paper is the light part." if asked_light
+                             else "pass --invert if the paper is the dark part."))
     calm = cv2.GaussianBlur(ink, (0, 0), DENOISE)  # grain is no half-tone
     band = widest_stroke(mask.shape)
     tones = (calm > MIN_CONTRAST) & ~mask  # between paper and ink, ruled lines aside
@@ -610,8 +622,9 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
     if widest > band and (found_light or widest > BRUSH_SHARE * max(mask.shape)
                           or not _brush_ink(mask, depth)):
         read = ("light areas (read as light ink on dark paper, as most of it is dark: if "
-                "the ink is dark, crop the picture to the paper it is on)"
-                if found_light else "dark areas")
+                "the ink is dark, crop the picture to the paper it is on)" if found_light
+                else "light areas (read as ink, as --invert asks: if the ink is dark, leave "
+                "--invert out)" if asked_light else "dark areas")
         found = f"the {read} are {widest:.0f} px wide, too wide for line art"
         raise InputError((not found_light and _beside_the_page(
             source, found, depth > band / 2, band)) or (
