@@ -61,13 +61,19 @@ def arc_length(points: np.ndarray) -> np.ndarray:
     return np.concatenate(([0.0], np.cumsum(steps)))
 
 
+def _new_stamps(t: np.ndarray) -> np.ndarray:
+    """(k,) bool: the points of times ``t`` (k,) stamped later than every point before
+    them (the first point always)."""
+    new = np.ones(len(t), dtype=bool)
+    new[1:] = t[1:] > np.maximum.accumulate(t)[:-1]
+    return new
+
+
 def time_anchors(arc: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Strictly increasing times and the arc length reached at each (module docstring):
     each new time is anchored at the last point stamped with it (the first at arc 0)."""
     t = np.asarray(t, dtype=np.float64)
-    new = np.ones(len(t), dtype=bool)
-    new[1:] = t[1:] > np.maximum.accumulate(t)[:-1]
-    starts = np.flatnonzero(new)
+    starts = np.flatnonzero(_new_stamps(t))
     ends = np.append(starts[1:] - 1, len(t) - 1)  # last point of each stamp's group
     s = arc[ends].copy()
     s[0] = arc[0]
@@ -78,8 +84,7 @@ def advances(t: np.ndarray) -> bool:
     """Whether the times ``t`` (k,) of a stroke reach at least two distinct stamps in
     order (:func:`time_anchors`): a stroke stamped all at one time, or backwards, has no
     recorded speed."""
-    t = np.asarray(t, dtype=np.float64)
-    return len(t) > 1 and bool((t[1:] > np.maximum.accumulate(t)[:-1]).any())
+    return int(_new_stamps(np.asarray(t, dtype=np.float64)).sum()) >= 2
 
 
 def recorded_speed(stroke: np.ndarray, t: np.ndarray, *, rate: float = 200.0,

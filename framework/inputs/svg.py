@@ -42,14 +42,15 @@ def read_svg(source: str) -> Traces:
     with reader_boundary(source, "SVG", "check that it is a complete, well-formed SVG file."):
         import svgelements as se
 
-        svg = se.SVG.parse(str(path))
-        shapes = _visible_shapes(svg, se)
-        hidden = not shapes and any(isinstance(el, se.Shape) for el in svg.elements())
+        shown = _shown(se.SVG.parse(str(path)))
+        shapes = [el for el in shown if isinstance(el, se.Shape) and _painted(el)]
+        hidden = not shapes and any(isinstance(el, se.Shape) for el in shown)
         strokes = _flatten(shapes, se, source)
         filled = bool(shapes) and all(  # filled areas with no stroke: a logo's export
             el.fill is not None and el.fill.value is not None
             and (el.stroke is None or el.stroke.value is None) for el in shapes)
-        left_out = _left_out(svg, se)
+        texts = sum(isinstance(el, se.Text) for el in shown)  # text that is still text
+        images = sum(isinstance(el, se.Image) for el in shown)  # embedded pictures
     if not strokes and hidden:
         raise InputError(
             f"{source}: every shape of the SVG is invisible (no stroke or fill, or an "
@@ -67,8 +68,7 @@ def read_svg(source: str) -> Traces:
         notes.append("its shapes are filled areas with no stroke, so the motion follows "
                      "their outlines; to draw their centre lines instead, export the "
                      "drawing as a PNG and give that")
-    texts, images = left_out
-    if texts or images:
+    if texts or images:  # shown, but not drawn
         shown = " and ".join(f"{n} {what}{'s' if n > 1 else ''}" for what, n in
                              (("text element", texts), ("image", images)) if n)
         advice = (["convert its text to paths to draw it (in Inkscape: Path > Object to "
@@ -81,21 +81,12 @@ def read_svg(source: str) -> Traces:
     return Traces(strokes, source=source, meta=meta).validated()
 
 
-def _left_out(svg: Any, se: Any) -> tuple[int, int]:
-    """How many text elements (text that is still text) and embedded pictures ``svg``
-    shows that the reader does not draw."""
-    shown = [el for el in svg.elements()
-             if str(getattr(el, "values", {}).get("visibility", "visible")) != "hidden"]
-    return (sum(isinstance(el, se.Text) for el in shown),
-            sum(isinstance(el, se.Image) for el in shown))
-
-
-def _visible_shapes(svg: Any, se: Any) -> list[Any]:
-    """The shapes of ``svg`` that are drawn: ``visibility`` not hidden, and something
-    painted (:func:`_painted`); svgelements already leaves out ``display: none`` and
-    ``defs``."""
-    return [el for el in svg.elements() if isinstance(el, se.Shape)
-            and str(el.values.get("visibility", "visible")) != "hidden" and _painted(el)]
+def _shown(svg: Any) -> list[Any]:
+    """The elements of ``svg`` whose ``visibility`` is not hidden (svgelements already
+    leaves out ``display: none`` and ``defs``); a shape among them is drawn when it paints
+    something (:func:`_painted`)."""
+    return [el for el in svg.elements()
+            if str(getattr(el, "values", {}).get("visibility", "visible")) != "hidden"]
 
 
 def _painted(shape: Any) -> bool:
@@ -116,7 +107,8 @@ def _painted(shape: Any) -> bool:
 
 
 def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
-    """The ``shapes`` (:func:`_visible_shapes`) as polylines (one per subpath)."""
+    """The ``shapes`` that are drawn (shown, :func:`_shown`, and painted,
+    :func:`_painted`) as polylines (one per subpath)."""
     paths = []
     for el in shapes:
         # abs: the transform applied to the segments themselves (a shape that cannot carry

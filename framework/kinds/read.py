@@ -34,15 +34,21 @@ def read_input(source: str, reader: str | None = None) -> Traces:
     if reader is not None:
         return host().get("reader", reader).read(source)
     readers = host().plugins("reader")
-    for name in sorted(readers):
-        if readers[name].can_read(source):
-            return readers[name].read(source)
+    name = _first_reader(readers, source)
+    if name is not None:
+        return readers[name].read(source)
     forms = "; ".join(
         f"{name} ({readers[name].description.rstrip('.')})" for name in sorted(readers)
     )
     raise InputError(
         f"{source}: no reader accepts this input; supported forms are: {forms or 'none'}."
     )
+
+
+def _first_reader(readers: dict[str, Any], source: str) -> str | None:
+    """The name of the first reader, in name order, that accepts ``source``; None if
+    none does."""
+    return next((name for name in sorted(readers) if readers[name].can_read(source)), None)
 
 
 def trace_input(source: str, tracer: Any, *, invert: bool = False,
@@ -58,9 +64,7 @@ def trace_input(source: str, tracer: Any, *, invert: bool = False,
 
     path = locate(source)
     if not is_picture(path):  # strokes already (an SVG, a GML, text:): nothing to trace
-        readers = host().plugins("reader")
-        taker = next((name for name in sorted(readers) if readers[name].can_read(path)),
-                     None)
+        taker = _first_reader(host().plugins("reader"), path)
         if taker is not None:
             raise InputError(f"{source}: a drawing's strokes already (the '{taker}' reader "
                              f"reads it), not a picture to trace; fit it as it is: "
