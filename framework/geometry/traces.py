@@ -10,6 +10,9 @@ from inkmotion.errors import InputError
 
 #: readers refuse inputs with more points than this (all strokes together)
 MAX_POINTS = 200_000
+#: a picture is cropped to what lands on the canvas before it is resized when the whole
+#: of it resized would be more than this many canvases (:func:`_warp`)
+WARP_CROP = 4.0
 
 
 @dataclass
@@ -97,10 +100,24 @@ class Traces:
 
 def _warp(image: np.ndarray, scale: float, shift: np.ndarray, canvas: np.ndarray) -> np.ndarray:
     """``image`` mapped by p ↦ scale·p + shift (pixel centres at half-integers) onto a
-    canvas (width, height): area-averaged when it shrinks, bilinear otherwise."""
+    canvas (width, height): area-averaged when it shrinks, bilinear otherwise. Where the
+    whole image resized would be more than :data:`WARP_CROP` canvases (a small drawing
+    in a large picture, enlarged to fill the canvas), only the part that lands on the
+    canvas and a pixel round it is resized, so the cost is the canvas's, not the
+    picture's times the enlargement."""
     import cv2
 
     h, w = image.shape
+    if (w * scale) * (h * scale) > WARP_CROP * float(canvas[0]) * float(canvas[1]):
+        # image pixels x with scale·(x + ½) + shift on the canvas: a whole-pixel window
+        lo = np.floor(-np.asarray(shift) / scale - 1.0).astype(int)
+        hi = np.ceil((np.asarray(canvas) - shift) / scale + 1.0).astype(int)
+        (x0, y0), (x1, y1) = np.maximum(lo, 0), np.minimum(hi, (w, h))
+        if x1 <= x0 or y1 <= y0:
+            return np.zeros((int(canvas[1]), int(canvas[0])), dtype=np.float32)
+        image = image[y0:y1, x0:x1]
+        shift = np.asarray(shift, dtype=np.float64) + scale * np.array([x0, y0])
+        h, w = image.shape
     size = (max(1, round(w * scale)), max(1, round(h * scale)))
     sx, sy = size[0] / w, size[1] / h
     resized = cv2.resize(image.astype(np.float32), size,

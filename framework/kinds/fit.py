@@ -211,6 +211,7 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
     traces = _read(job, source).fit_to_canvas(p.size)
     canvas = (int(traces.width), int(traces.height))
     width = _pen_width(traces, p)
+    _check_pen(traces, width, source)
     renderer = job.plugin(p.renderer)
     initialise = job.plugin(p.initialiser)
     options = dict(width=width, dtype=dtype, device=job.device, **job.options(p.initialiser))
@@ -290,6 +291,32 @@ def _pen_width(traces: Any, p: FitParams) -> float:
     if scale is None:
         return p.width
     return max(1.0, traces.meta["extraction"]["ink_width_px"]["median"] * scale)
+
+
+#: a picture's pen, enlarged with its drawing to fill the canvas, is at most this share
+#: of the canvas's longer side: past it the ink is a dot or a blot, not lines
+MAX_PEN_SHARE = 0.2
+
+
+def _check_pen(traces: Any, width: float, source: str) -> None:
+    """Refuse a picture whose drawing is a mark about as wide as it is long (a dot, a
+    tick, a blot): filled to the canvas its pen would be wider than
+    :data:`MAX_PEN_SHARE` of it, a fit of nothing but a smear, slow as its pen is wide."""
+    import numpy as np
+
+    from inkmotion.errors import InputError
+
+    scale = traces.meta.get("canvas_from_picture", {}).get("scale")
+    if scale is None or width <= MAX_PEN_SHARE * max(traces.width, traces.height):
+        return
+    ink = traces.meta["extraction"]["ink_width_px"]["median"]
+    points = np.concatenate([s[:, :2] for s in traces.strokes])
+    span = float(np.ptp(points, axis=0).max()) / scale  # the drawing's extent, picture px
+    raise InputError(f"{source}: the drawing is a mark about as wide as it is long (its ink "
+                     f"{ink:.0f} px wide, its lines at most {span:.0f} px long): enlarged to "
+                     f"fill the canvas its pen would be {width:.0f} px, over a fifth of the "
+                     "canvas, so there are no lines to draw; give a picture whose lines are "
+                     "longer than they are wide.")
 
 
 def widened(ink: Any, by: float) -> Any:
