@@ -85,6 +85,31 @@ def test_run_json_prints_the_report(fitted: Path, tmp_path: Path) -> None:
     assert json.loads(res.stdout) == json.loads((out / "report.json").read_text())
 
 
+def test_reports_are_strict_json_with_null_for_a_figure_that_does_not_apply(
+        tmp_path: Path) -> None:
+    """A drawing whose every path is one sub-movement has no T_end ratio over paths of
+    two or more: report.json and ``--json`` say null, never NaN (not JSON: a browser's or
+    Node's JSON.parse refuses the file), and the summary line leaves it out."""
+    svg = tmp_path / "line.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="200" height="100">'
+                   '<line x1="10" y1="10" x2="190" y2="80" stroke="black"/></svg>')
+    out = tmp_path / "fit"
+    res = inkmotion("run", "fit", str(svg), "--steps", "10", "--size", "120", "--out",
+                    str(out), "--no-record", "--json")
+    assert res.returncode == 0, res.stderr
+
+    def strict(text: str) -> dict:
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))
+
+    report = strict((out / "report.json").read_text())
+    assert report["t_end_ratio_multi"] is None  # its one path began as one move
+    assert report["metrics"]["t_end_ratio_multi"] is None
+    assert strict(res.stdout) == report
+    plain = inkmotion("run", "--config", str(out / "job.json"), "--out", str(tmp_path / "b"),
+                      "--no-record")
+    assert plain.returncode == 0 and "nan" not in plain.stdout, plain.stdout
+
+
 def test_benchmark_json_and_force(tmp_path: Path) -> None:
     """``benchmark --json`` prints the summary alone on stdout; a second run onto the
     same folder is refused in one sentence, and replaces it with ``--force``."""

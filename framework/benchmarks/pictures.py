@@ -36,6 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
+from inkmotion.json_files import dumps
+
 
 @dataclass(frozen=True)
 class Scan:
@@ -282,8 +284,8 @@ def main(argv: list[str] | None = None) -> None:
         for scan in scans:
             row = run_one(source, scan, args.out, args.steps)
             rows.append(row)
-            print(json.dumps(row), flush=True)
-            (args.out / "pictures.json").write_text(json.dumps(rows, indent=1))
+            print(dumps(row), flush=True)
+            (args.out / "pictures.json").write_text(dumps(rows, indent=1))
 
 
 if __name__ == "__main__":

@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import InkmotionError, InputError, SpecError
+from inkmotion.json_files import dumps
 
 #: extensions of the recorded drawings a folder input expands to (and pictures of drawings,
 #: :data:`inkmotion.images.formats.PICTURE_SUFFIXES`)
@@ -525,14 +526,10 @@ def write_summary(out: Path, summary: dict) -> None:
     """summary.json, summary.csv, summary.md and summary.html in ``out``."""
     from inkmotion.benchmarks.quality_report import write_html, write_markdown
 
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=_json_default))
+    (out / "summary.json").write_text(dumps(summary, str, indent=1))
     write_csv(out / "summary.csv", summary)
     write_markdown(out / "summary.md", summary)
     write_html(out / "summary.html", summary)
-
-
-def _json_default(value: Any) -> Any:
-    return str(value)
 
 
 def write_csv(path: Path, summary: dict) -> None:

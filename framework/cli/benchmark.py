@@ -4,7 +4,6 @@ command runs, so start-up stays light."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -15,6 +14,7 @@ from typer.core import TyperCommand
 from inkmotion.cli.errors import fail
 from inkmotion.cli.run import FORCE_HELP
 from inkmotion.errors import InkmotionError
+from inkmotion.json_files import dumps
 
 out = Console()
 err = Console(stderr=True)
@@ -106,7 +106,7 @@ def benchmark_cmd(
         f"summaries in {out_dir} (summary.md, summary.html, summary.csv, summary.json)",
         highlight=False)
     if as_json:
-        print(json.dumps(summary, indent=1, default=str))
+        print(dumps(summary, str, indent=1))
     failed = summary["totals"]["failed"]
     if failed:
         fail(f"{failed} of {summary['totals']['items']} items failed; their errors are in "

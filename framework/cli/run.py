@@ -14,7 +14,7 @@ takes the same options (``--steps 100`` overrides job.json's steps as with ``run
 from __future__ import annotations
 
 import inspect
-import json
+import math
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -23,6 +23,7 @@ import typer
 from inkmotion.cli.errors import EXIT_USAGE, fail
 from inkmotion.cli.kind_commands import IO_PANEL, KindGroup, kind_command, spec_from_options
 from inkmotion.errors import InkmotionError
+from inkmotion.json_files import dumps
 
 RUN_HELP = """Run a job in this process (no services needed).
 
@@ -60,7 +61,7 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> No
     except KeyboardInterrupt:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
         raise typer.Exit(130) from None
-    print(json.dumps(report, indent=1, default=str) if as_json else summary(report))
+    print(dumps(report, str, indent=1) if as_json else summary(report))
     for warning in report.get("warnings") or []:
         typer.secho(f"warning: {warning}", fg="yellow", err=True)
     if not as_json:
@@ -69,9 +70,11 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> No
 
 
 def summary(report: dict) -> str:
-    """One line: wall time, device and the kind's metrics."""
+    """One line: wall time, device and the kind's metrics (a NaN, a figure that does not
+    apply, left out)."""
     shown = [f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-             for k, v in (report.get("metrics") or {}).items() if k != "quality"]
+             for k, v in (report.get("metrics") or {}).items()
+             if k != "quality" and not (isinstance(v, float) and not math.isfinite(v))]
     if report.get("quality") == "poor":
         shown.append("quality POOR")
     return (f"done in {report.get('wall_s', 0.0):.1f} s on {report.get('device', '?')}: "

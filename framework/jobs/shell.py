@@ -16,7 +16,6 @@ executed in-process and one executed by a worker write the same artifacts. The s
 
 from __future__ import annotations
 
-import json
 import platform
 import random
 import time
@@ -29,6 +28,7 @@ from inkmotion.events import RunContext, StepState, wants
 from inkmotion.jobs.kind import ResolvedJob, resolve
 from inkmotion.jobs.params import PluginChoice, options_dict
 from inkmotion.jobs.spec import JobSpec
+from inkmotion.json_files import dumps
 
 
 class ObserverGroup:
@@ -326,5 +326,5 @@ def record_job(folder: Path, spec: JobSpec, report: dict) -> None:
     into ``folder``."""
     job = {"spec": spec.to_dict(), "versions": versions(), "seed": spec.seed,
            **report.get("provenance", {})}
-    (folder / "job.json").write_text(json.dumps(job, indent=1))
-    (folder / "report.json").write_text(json.dumps(report, indent=1))
+    (folder / "job.json").write_text(dumps(job, indent=1))
+    (folder / "report.json").write_text(dumps(report, indent=1))

@@ -16,7 +16,6 @@ got and where that record is.
 
 from __future__ import annotations
 
-import json
 import shutil
 import time
 from pathlib import Path
@@ -26,6 +25,7 @@ import numpy as np
 
 from inkmotion.errors import RobotError
 from inkmotion.events import StepState
+from inkmotion.json_files import dumps
 from inkmotion.kinds.simulate import job_setup, program_report, write_program
 
 if TYPE_CHECKING:
@@ -120,7 +120,7 @@ def _stopped(job: Job, program: RobotProgram, execution: Execution, report: dict
     report.update({"completed": False, "stop_reason": execution.stop_reason,
                    "stopped_at_s": execution.duration, "of_s": total,
                    "recovered": recovered})
-    (stopped / "report.json").write_text(json.dumps(report, indent=1, default=float) + "\n",
+    (stopped / "report.json").write_text(dumps(report, float, indent=1) + "\n",
                                          encoding="utf-8")
     after = "" if recovered is None else (" errors cleared;" if recovered else
                                           " clearing its errors failed;")

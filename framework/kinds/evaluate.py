@@ -7,11 +7,11 @@ progress bar shows the path and the timing being computed.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from inkmotion.events import StepState
+from inkmotion.json_files import dumps
 
 if TYPE_CHECKING:
     from inkmotion.evaluation.comparison import Comparison
@@ -75,7 +75,7 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     if recording is not None:
         doc["human"] = human_agreement_of_traces(recording, drawing,
                                                  job.folder / "human_speeds.png", p.recording)
-    (job.folder / "evaluation.json").write_text(json.dumps(doc, indent=1, default=float))
+    (job.folder / "evaluation.json").write_text(dumps(doc, float, indent=1))
     write_csv(job.folder / "evaluation.csv", table, ratios,
               per_path if len(per_path) > 1 else None)
     plot_speeds(job.folder / "speeds.png", per_path[shown].timed, scale)

@@ -8,7 +8,6 @@ Records are returned as plain :class:`JobRecord` snapshots, detached from any se
 
 from __future__ import annotations
 
-import math
 import uuid
 from collections.abc import Iterable
 from datetime import timedelta
@@ -17,6 +16,7 @@ from typing import Any
 from sqlalchemy import and_, delete, or_, select, update
 from sqlalchemy.orm import Session
 
+from inkmotion.json_files import json_ready
 from inkmotion.store.db import get_engine
 from inkmotion.store.models import Job
 from inkmotion.store.records import JobRecord, check_statuses, utcnow
@@ -183,37 +183,18 @@ def update_progress(job_id: str, step: int, total: int, losses: dict[str, float]
                          lease_until=now + timedelta(seconds=lease_s))
 
 
-def _json_value(value: Any) -> Any:
-    """``value`` as plain JSON: NumPy/torch scalars and arrays via ``item``/``tolist``, and
-    NaN or infinities as ``None`` (strict JSON; PostgreSQL's ``json`` rejects NaN)."""
-    if isinstance(value, float):
-        return float(value) if math.isfinite(value) else None  # np.float64 -> float
-    if isinstance(value, dict):
-        return {str(k): _json_value(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_value(v) for v in value]
-    if value is None or isinstance(value, (str, int)):
-        return value
-    for method in ("item", "tolist"):  # numpy / torch scalars, arrays, tensors
-        if callable(getattr(value, method, None)):
-            try:
-                return _json_value(getattr(value, method)())
-            except (TypeError, ValueError, RuntimeError):
-                continue
-    raise TypeError(f"Metric value {value!r} ({type(value).__name__}) is not JSON data.")
-
-
 def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None,
                    metrics: dict[str, Any] | None = None, owner: str | None = None) -> bool:
     """The job's artifacts are complete at ``artifact_dir``; ``metrics`` are the job kind's
     summary figures (e.g. ``{"chamfer_mean_px": 0.12}``), stored in the generic JSON column
     so that every job kind can report its own. They are normalised to plain JSON first
-    (see :func:`_json_value`), so a NumPy float cannot make the final update fail; an
-    unserialisable value raises ``TypeError`` before anything is written. ``None`` leaves
-    the column as it is. With ``owner``, only that attempt's lease may finish the job."""
+    (:func:`inkmotion.json_files.json_ready`), so a NumPy float cannot make the final
+    update fail; an unserialisable value raises ``TypeError`` before anything is written.
+    ``None`` leaves the column as it is. With ``owner``, only that attempt's lease may
+    finish the job."""
     values: dict[str, Any] = {}
     if metrics is not None:
-        values["metrics"] = _json_value(dict(metrics))
+        values["metrics"] = json_ready(dict(metrics))
     now = utcnow()
     where = _owned(job_id, owner) if owner is not None else (Job.id == job_id,
                                                              Job.status == "running")

@@ -14,13 +14,13 @@ A corrected ``strokes.svg`` or ``strokes.gml`` is fitted like any recorded trace
 from __future__ import annotations
 
 import colorsys
-import json
 from pathlib import Path
 from xml.sax.saxutils import escape
 
 import numpy as np
 
 from inkmotion.geometry.traces import Traces
+from inkmotion.json_files import dumps
 
 
 def stroke_colours(n: int) -> list[tuple[int, int, int]]:
@@ -120,6 +120,6 @@ def write_trace(traces: Traces, grey: np.ndarray, folder: Path,
     (folder / "strokes.svg").write_text(strokes_svg(traces, w, h))
     (folder / "strokes.gml").write_text(strokes_gml(traces, w, h))
     strokes_png(traces, grey, folder / "strokes.png", page)
-    (folder / "extraction.json").write_text(json.dumps(traces.meta.get("extraction", {}),
+    (folder / "extraction.json").write_text(dumps(traces.meta.get("extraction", {}),
                                                        indent=1) + "\n")
     return ["strokes.svg", "strokes.gml", "strokes.png", "extraction.json"]
