@@ -395,6 +395,27 @@ def test_marks_over_the_end_of_a_line_come_after_it(tmp_path: Path) -> None:
     assert tick[:, 0].max() < 170 and body[:, 0].min() < 60
 
 
+def test_a_printed_words_i_dots_and_t_bars_come_with_their_letters(tmp_path: Path) -> None:
+    """Printed "it it": each i's dot is drawn right after its stem (the dots are a line of
+    their own by their height, over the line's start and middle, not its end), and each
+    t's level bar with its t (a level stroke is as tall as its pen: its ink, not its
+    centreline, overlaps the stem's middle half, so it is in the word's line)."""
+    img = page((520, 220), 255)
+    for x in (60, 300):
+        img = line(img, [(x, 90), (x, 180)], width=9)  # the i's stem
+        cv2.circle(img, (x, 60), 6, 30, -1, cv2.LINE_AA)  # its dot
+        img = line(img, [(x + 70, 50), (x + 70, 170), (x + 80, 180), (x + 100, 180)], width=9)
+        img = line(img, [(x + 50, 85), (x + 100, 85)], width=9)  # the t's bar
+    strokes = strokes_of(tmp_path, img)
+    assert len(strokes) == 6 * 1 + 2, len(strokes)
+    kinds = ["dot" if np.ptp(s[:, 1]) < 3 and np.ptp(s[:, 0]) < 15 else
+             "bar" if np.ptp(s[:, 1]) < 3 else "stem" if s[:, 0].max() < 130 or
+             280 < s[:, 0].max() < 370 else "t" for s in strokes]
+    lefts = [round(float(s[:, 0].min()) / 10) * 10 for s in strokes]
+    assert kinds == ["stem", "dot", "t", "bar"] * 2, list(zip(kinds, lefts, strict=True))
+    assert max(lefts[:4]) < 200 < min(lefts[4:])
+
+
 def test_stacked_parts_of_a_letter_are_drawn_top_to_bottom(tmp_path: Path) -> None:
     # an a's hook and stem, and its bowl below reaching further left: one line, and one
     # column (they share most of their width), so the hook comes first, though the bowl's
@@ -478,14 +499,23 @@ def test_every_form_of_picture_gives_the_same_strokes(tmp_path: Path, form: str)
     assert ends == want, form
 
 
-def test_a_hairline_stays_whole(tmp_path: Path) -> None:
-    """A line one pixel wide (a fine pen, or a photo reduced to trace it) running near
-    vertical: the mask's clean-up keeps it whole (a 3 × 3 median would erase it)."""
+@pytest.mark.parametrize("shape", ["near vertical", "diagonal", "circle"])
+def test_a_hairline_stays_whole(tmp_path: Path, shape: str) -> None:
+    """A line one pixel wide without antialiasing (a fine pen, a paint program's pencil,
+    a photo reduced to trace it): the mask's clean-up keeps it whole (a 3 × 3 median
+    would erase it), and so does the speck filter where its pixels touch only at their
+    corners (a diagonal, most of a circle: as 4-connected pieces they were all specks)."""
     img = page()
-    cv2.line(img, (150, 40), (170, 260), 40, 1)  # no antialiasing: one pixel wide
+    if shape == "circle":
+        cv2.circle(img, (200, 150), 110, 40, 1, cv2.LINE_8)
+        length = 2 * math.pi * 110
+    else:
+        end = (170, 260) if shape == "near vertical" else (370, 260)
+        cv2.line(img, (150, 40), end, 40, 1, cv2.LINE_8)
+        length = math.hypot(end[0] - 150, end[1] - 40)
     strokes = strokes_of(tmp_path, img)
     assert len(strokes) == 1, [s[[0, -1], :2].round().tolist() for s in strokes]
-    assert _length_of(strokes[0]) > 0.95 * math.hypot(20, 220)
+    assert _length_of(strokes[0]) > 0.95 * length
 
 
 def _length_of(s: np.ndarray) -> float:
@@ -1137,6 +1167,52 @@ def test_tracing_strokes_already_says_to_fit_them(tmp_path: Path) -> None:
         with pytest.raises(InputError, match=f"the '{reader}' reader reads it") as err:
             trace_input(source, plugin("tracer", "skeleton"))
         assert str(err.value).endswith(f"inkmotion run fit {source}.")
+
+
+@pytest.mark.parametrize("mark", ["dot", "blot"])
+def test_a_fit_of_a_dot_or_a_blot_is_refused_and_writes_nothing(tmp_path: Path,
+                                                                mark: str) -> None:
+    """A picture whose drawing is one mark about as wide as it is long would be enlarged
+    to fill the canvas with a pen as wide as the canvas: refused in one sentence (it
+    was a crash: the picture resized 29-fold, 55 GB)."""
+    img = page((400, 400), 255)
+    if mark == "dot":
+        cv2.circle(img, (200, 200), 5, 0, -1)
+    else:
+        line(img, [(190, 200), (205, 203)], width=12)
+    out = tmp_path / "fit"
+    done = cli("run", "fit", save(tmp_path, img), "--out", str(out), "--no-record")
+    message = done.stderr.strip()
+    assert done.returncode == 1 and "about as wide as it is long" in message, message
+    assert message.count("\n") == 0 and message.endswith("."), message
+    assert not out.exists()
+
+
+def test_a_small_drawing_in_a_large_picture_is_warped_from_its_own_pixels() -> None:
+    """Enlarging a small drawing to fill the canvas resizes only the part of the picture
+    that lands on it: the same canvas as resizing the whole picture, at the canvas's cost."""
+    from inkmotion.geometry import traces as tr
+    from inkmotion.geometry.traces import Traces
+
+    ink = np.zeros((3000, 3000), np.float32)
+    cv2.line(ink, (2900, 2900), (2980, 2950), 1.0, 3, cv2.LINE_AA)
+    small = Traces([np.array([[2900.5, 2900.5], [2980.5, 2950.5]])], "t", picture=ink)
+    cropped = small.fit_to_canvas(350).picture
+    assert cropped.shape == (240, 350) and cropped.max() > 0.9
+    whole = Traces(small.strokes, "t", picture=ink[2700:, 2700:].copy())
+    whole.strokes = [s - 2700 for s in small.strokes]
+    saved, tr.WARP_CROP = tr.WARP_CROP, math.inf  # 300 × 300 px resized whole: no crop
+    try:
+        reference = whole.fit_to_canvas(350).picture
+    finally:
+        tr.WARP_CROP = saved
+    def centre(img: np.ndarray) -> np.ndarray:  # the ink's centroid, px
+        ys, xs = np.mgrid[0:img.shape[0], 0:img.shape[1]]
+        return np.array([(xs * img).sum(), (ys * img).sum()]) / img.sum()
+
+    assert np.abs(centre(cropped) - centre(reference)).max() < 0.05
+    assert cropped.sum() == pytest.approx(reference.sum(), rel=0.01)
+    assert np.abs(cropped - reference).mean() < 0.01
 
 
 def test_unknown_tracer_is_refused(tmp_path: Path) -> None:

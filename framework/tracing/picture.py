@@ -508,7 +508,9 @@ def ink_mask(ink: np.ndarray, level: float | None) -> np.ndarray:
         return np.zeros(ink.shape, bool)
     mask = _tidy((ink > level).astype(np.uint8))
     speck = max(4, int(round(1e-5 * mask.size)))
-    mask = remove_small_objects(mask, max_size=speck)
+    # pieces joined at a corner are one (connectivity 2): a hairline drawn without
+    # anti-aliasing (a paint program's pencil) runs diagonally pixel to pixel by corners
+    mask = remove_small_objects(mask, max_size=speck, connectivity=2)
     return remove_small_holes(mask, max_size=speck)
 
 

@@ -44,14 +44,16 @@ formed, directed and ordered the way a hand draws them.
    doodles, 69 run so, 56 counter-clockwise, and 30 from their top end (the open stroke's
    rule).
    Strokes are ordered in lines, top to bottom, each line left to right (by the stroke's
-   left edge); strokes are in one line when the middle halves of their heights overlap
-   (:data:`CORE_TRIM`). Within a line, strokes one above the other over most of the
+   left edge); strokes are in one line when the middle halves of their ink's heights
+   overlap (:data:`CORE_TRIM`; the ink's, so a level bar, a t's, is as tall as its pen).
+   Within a line, strokes one above the other over most of the
    wider one's width (:data:`COLUMN`) are a column, drawn top to bottom: the parts of
    one character stacked (an a's hook above its bowl), while a dot or a bar over a
    wider stroke keeps its place by its left edge. Small marks above a line's end (a
-   kana's voicing marks), a line of their own by their height, are drawn in the line
-   below them, after what they mark (:func:`_marks_joined`); further out (a writer's dot
-   beside a tag) or over the line's start, they come first.
+   kana's voicing marks), or dots each over a stem no wider than :data:`STEM` of it (an
+   i's, a j's), a line of their own by their height, are drawn in the line below them,
+   after what they mark (:func:`_marks_joined`); further out (a writer's dot beside a
+   tag) or over the line's start, they come first.
 5. **Dots**: ink that no stroke passes through, or only a stroke no longer than the blob
    is wide, is a dab, a stroke of two points across the blob, when it is at least as big
    as a dab of the drawing's pen; smaller specks (and any stroke within one) are noise
@@ -142,6 +144,11 @@ MARK = 0.4
 MARK_REACH = 0.5
 MARK_END = 2 / 3
 MARK_PAST = 0.25
+#: ... and so is a line of dots (ink at least half as tall as wide, and the other way)
+#: each over a stroke of the line below no wider than this many times the dot, within
+#: :data:`MARK_REACH` of that line's height above it: an i's or a j's dot, drawn after
+#: its stem; a dot over a wider stroke (文's) keeps its place, and so does a dash (う's)
+STEM = 1.5
 
 
 @dataclass
@@ -934,19 +941,23 @@ def _loop_with_gap(pts: np.ndarray) -> bool:
     return 4 * math.pi * area / (length + gap) ** 2 >= ROUND
 
 
-def _marks_joined(lines: list[list[int]],
-                  boxes: list[tuple[float, float, float, float]]) -> list[list[int]]:
+def _marks_joined(lines: list[list[int]], boxes: list[tuple[float, float, float, float]],
+                  inks: list[tuple[float, float, float, float]]
+                  ) -> tuple[list[list[int]], set[int]]:
     """``lines`` (of stroke indices, top to bottom) with each line of marks joined to the
-    line it sits on, so it is drawn in that line rather than before it: a line whose every
+    line it sits on, so it is drawn in that line rather than before it, and the dots so
+    joined over stems (each drawn after the column of its stem): a line whose every
     stroke is no larger (its box's longer side) than :data:`MARK` × the height of the line
     below it, whose bottom is at most :data:`MARK_REACH` × that height above that line's
     top, and which sits over the line's end (its middle right of :data:`MARK_END` of the
     line's width, and past its right edge by at most :data:`MARK_PAST` × its height: a
-    kana's voicing marks, an accent on a word's last letter). A mark further out, a
+    kana's voicing marks, an accent on a word's last letter), or whose every stroke is a
+    dot over a stem (:data:`STEM`: the i-dots of a line of print). A mark further out, a
     writer's dot or star beside a tag, is a line of its own, drawn first. A hand that
     has drawn a line then adds what sits over its end; a mark over the line's start or
     middle (え's first stroke) is drawn before it, top to bottom. Marks stacked in several
-    lines join one by one, bottom up."""
+    lines join one by one, bottom up. ``inks``: each stroke's ink box (its box grown by
+    its pen), what tells a dot from a dash."""
     def extent(line: list[int]) -> tuple[float, float, float, float, float]:
         left = min(boxes[i][0] for i in line)
         right = max(boxes[i][2] for i in line)
@@ -955,6 +966,7 @@ def _marks_joined(lines: list[list[int]],
         return left, top, right, low, max(boxes[i][3] - boxes[i][1] for i in line)
 
     out = [list(line) for line in lines]
+    dotted: set[int] = set()
     for k in range(len(out) - 2, -1, -1):
         left, _, right, low, _ = extent(out[k])
         below_left, below_top, below_right, _, height = extent(out[k + 1])
@@ -964,25 +976,49 @@ def _marks_joined(lines: list[list[int]],
         middle = 0.5 * (left + right)
         at_end = (below_left + MARK_END * (below_right - below_left) <= middle
                   <= below_right + MARK_PAST * height)
-        if small and near and at_end:
+        dots = small and all(_dot_over_stem(i, out[k + 1], boxes, inks,
+                                            MARK_REACH * height) for i in out[k])
+        if small and near and at_end or dots:
+            if dots and not (near and at_end):
+                dotted.update(out[k])
             out[k + 1] = out[k] + out[k + 1]
             del out[k]
-    return out
+    return out, dotted
+
+
+def _dot_over_stem(i: int, below: list[int], boxes: list[tuple[float, float, float, float]],
+                   inks: list[tuple[float, float, float, float]], reach: float) -> bool:
+    """Whether stroke ``i`` is a dot (its ink at least half as tall as wide, and the
+    other way) over a stem among ``below``: a stroke no wider than :data:`STEM` × the
+    dot's ink, under its middle, whose top is at most ``reach`` below the dot."""
+    left, top, right, low = inks[i]
+    size = max(right - left, low - top)
+    if min(right - left, low - top) < 0.5 * size:
+        return False  # a dash (う's first stroke), not a dot
+    middle = 0.5 * (left + right)
+    return any(boxes[j][0] - size <= middle <= boxes[j][2] + size
+               and inks[j][2] - inks[j][0] <= STEM * size
+               and 0.0 <= boxes[j][1] - boxes[i][3] <= reach for j in below)
 
 
 def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
     """Strokes in lines top to bottom, each line left to right (module docstring, step 4):
-    a line is a run of strokes whose vertical cores (their extent less
-    :data:`CORE_TRIM` of their height at each end) overlap. A tag's letters are one line;
-    lines of text are apart; and a long tail reaching down from a word does not pull the
-    marks above it into its line, which are drawn first. Within a line, strokes one above
-    the other over most of their width (:data:`COLUMN`: an a's stem and its bowl, a
-    character's stacked parts) are a column, drawn top to bottom; columns go left to
-    right by their left edge. A dot or a bar over a wider stroke is not its column, so a
-    word's i-dots and t-bars still come after the stroke they sit on."""
+    a line is a run of strokes whose vertical cores (their ink's extent, the centreline's
+    grown by the stroke's pen, less :data:`CORE_TRIM` of its height at each end) overlap.
+    A tag's letters are one line; lines of text are apart; and a long tail reaching down
+    from a word does not pull the marks above it into its line, which are drawn first.
+    Within a line, strokes one above the other over most of their width (:data:`COLUMN`:
+    an a's stem and its bowl, a character's stacked parts) are a column, drawn top to
+    bottom; columns go left to right by their left edge. A dot or a bar over a wider
+    stroke is not its column, so a word's i-dots and t-bars still come after the stroke
+    they sit on; the dots over stems a line takes in (:func:`_marks_joined`) join the
+    column of the stroke under them, after its strokes."""
     boxes = [(s[:, 0].min(), s[:, 1].min(), s[:, 0].max(), s[:, 1].max()) for s in strokes]
+    pens = [float(s[:, 2].max()) if s.shape[1] > 2 else 0.0 for s in strokes]
+    inks = [(left - r, top - r, right + r, low + r)
+            for (left, top, right, low), r in zip(boxes, pens, strict=True)]
     cores = [(top + CORE_TRIM * (low - top), low - CORE_TRIM * (low - top))
-             for _, top, _, low in boxes]
+             for _, top, _, low in inks]
     lines: list[list[int]] = []
     bottom = -math.inf
     for i in sorted(range(len(strokes)), key=lambda i: cores[i][0]):
@@ -990,12 +1026,12 @@ def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
             lines.append([])
         lines[-1].append(i)
         bottom = max(bottom, cores[i][1])
-    lines = _marks_joined(lines, boxes)
+    lines, dotted = _marks_joined(lines, boxes, inks)
     order: list[int] = []
     for line in lines:
         columns: list[list[int]] = []  # each: members, left to right by first member
         spans: list[tuple[float, float]] = []
-        for i in sorted(line, key=lambda i: boxes[i][0]):
+        for i in sorted((i for i in line if i not in dotted), key=lambda i: boxes[i][0]):
             left, right = boxes[i][0], boxes[i][2]
             for k, (a, b) in enumerate(spans):
                 if min(right, b) - max(left, a) > COLUMN * max(right - left, b - a):
@@ -1005,6 +1041,16 @@ def _ordered(strokes: list[np.ndarray]) -> list[np.ndarray]:
             else:
                 columns.append([i])
                 spans.append((left, right))
-        for members in columns:
-            order += sorted(members, key=lambda i: (boxes[i][1], boxes[i][0]))
+        for i in sorted((i for i in line if i in dotted), key=lambda i: boxes[i][0]):
+            middle, size = 0.5 * (inks[i][0] + inks[i][2]), inks[i][2] - inks[i][0]
+            under = [k for k, (a, b) in enumerate(spans) if a - size <= middle <= b + size]
+            if under:  # the column it marks: the nearest under it
+                columns[min(under, key=lambda k: abs(sum(spans[k]) / 2 - middle))].append(i)
+            else:
+                columns.append([i])
+                spans.append((boxes[i][0], boxes[i][2]))
+        columns.sort(key=lambda members: min(boxes[i][0] for i in members))
+        for members in columns:  # top to bottom; marks after, left to right
+            order += sorted(members, key=lambda i: (1, boxes[i][0], boxes[i][1]) if i in dotted
+                            else (0, boxes[i][1], boxes[i][0]))
     return [strokes[i] for i in order]
