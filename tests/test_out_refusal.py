@@ -114,3 +114,35 @@ def test_an_empty_folder_is_used_and_force_replaces_results(tmp_path: Path) -> N
     assert json.loads((out / "job.json").read_text())["spec"]["seed"] == 3
     assert not (out / "stale.txt").exists()  # replaced whole, not merged
     assert sorted(p.name for p in tmp_path.iterdir()) == ["hi"]  # no staging left over
+
+
+def test_force_never_deletes_the_commands_own_input(results: Path) -> None:
+    """Plotting a fit's plan into the fit's own folder with --force would delete the plan
+    before it is read (and the job.json written would name a file that is gone)."""
+    before = snapshot(results)
+    res = inkmotion("run", "plot", str(results / "plan.json"), "--out", str(results),
+                    "--force", "--no-record")
+    assert res.returncode == 1
+    assert res.stderr.strip() == (
+        f"error: {results} holds this command's input {results / 'plan.json'}, which writing "
+        "the results there would delete; choose another --out.")
+    assert snapshot(results) == before
+    with pytest.raises(OutputExistsError, match="holds this command's input"):
+        refuse_to_overwrite(results.parent, True, inputs=[results / "plan.json"])
+    refuse_to_overwrite(results, True, inputs=["text:hi", results.parent / "other.json"])
+
+
+def test_force_replaces_results_only(tmp_path: Path) -> None:
+    """--force replaces a folder a run wrote (it holds job.json, report.json, a
+    benchmark's summary.json or a trace's extraction.json), never a folder of the user's
+    own files that --out was pointed at by mistake."""
+    mine = tmp_path / "documents"
+    mine.mkdir()
+    (mine / "mine.txt").write_text("keep me")
+    with pytest.raises(OutputExistsError) as caught:
+        refuse_to_overwrite(mine, True)
+    assert str(caught.value) == (
+        f"{mine} holds files that are not inkmotion's results (mine.txt), which --force "
+        "would delete; choose another --out.")
+    (mine / "summary.json").write_text("{}")
+    refuse_to_overwrite(mine, True)

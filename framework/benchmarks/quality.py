@@ -358,7 +358,7 @@ def run_benchmark(inputs: list[str], out: Path, *, jobs: int | None = None,
     jobs = min(jobs, math.ceil(len(sources) / batch))
     threads = default_threads()  # a fit's own default, whatever runs beside it
     out = Path(out)
-    refuse_to_overwrite(out, force)
+    refuse_to_overwrite(out, force, inputs=sources)
     created = [p for p in (out, *out.parents) if not p.exists()][1:]  # made by staging
     started = time.perf_counter()
     try:

@@ -17,7 +17,9 @@ def evaluate_cmd(
     out_dir: OutOpt = None,
     vmax: Annotated[float, typer.Option("--vmax", help="Pen speed limit, m/s.")] = 0.25,
     amax: Annotated[float, typer.Option("--amax", help="Pen acceleration limit, m/s².")] = 2.5,
-    path: Annotated[int, typer.Option(help="Path of the plan (-1: the longest).")] = -1,
+    path: Annotated[int, typer.Option(
+        help="Which path of the plan (0-based); -1: every path, per path and over the "
+        "drawing (the plots show the longest).")] = -1,
     rate: Annotated[float, typer.Option(help="Sampling rate, Hz.")] = 1000.0,
     setup: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         help="Robot setup TOML whose paper maps px to metres.")] = None,

@@ -37,7 +37,8 @@ Examples:
 """
 
 OUT_HELP = "Output folder (required; written whole or not at all)."
-FORCE_HELP = "Replace the results already in --out."
+FORCE_HELP = ("Replace the results already in --out (a folder a run wrote; never one "
+              "holding this command's input or only files of your own).")
 RECORD_HELP = "Write recording.rrd (rerun)."
 JSON_HELP = "Print report.json instead of the one-line summary."
 
@@ -92,6 +93,7 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
     try:
         refuse_to_overwrite(out_dir, force)
         spec = spec_from_options(kind_name, inputs, values, config)
+        refuse_to_overwrite(out_dir, force, inputs=spec.inputs.values())
         resolve(spec)
     except InkmotionError as exc:
         fail(exc)

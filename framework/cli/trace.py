@@ -47,7 +47,7 @@ def trace_cmd(
     from inkmotion.tracing.outputs import write_trace
 
     try:
-        refuse_to_overwrite(out, force)
+        refuse_to_overwrite(out, force, inputs=[image])
         traces, picture = trace_input(image, plugin("tracer", tracer), invert=invert,
                                       varying_width=True)
         with StagingDir(out) as stage:
