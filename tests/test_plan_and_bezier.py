@@ -44,7 +44,11 @@ def test_plan_round_trip(tmp_path, dim: int) -> None:
     ("{not json", "is not valid JSON"),
     ('{"version": 7, "canvas": {"width": 1, "height": 1}, "paths": []}', "version"),
     ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0]]}]}',
-     "not a valid plan.json"),
+     r"paths\[0\] has 1 point; a path needs its start and at least one target"),
+    ('[1, 2]', "its top level is a list"),
+    ('{"spec": {}, "versions": {}, "seed": 0}', "is a job.json, not a plan.json"),
+    ('{"kind": "fit", "wall_s": 3.1, "paths": 2, "canvas": {}}', "is a report.json"),
+    ('{"traces": [[[0, 0], [1, 1]]]}', "is an input.json"),
     ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": []}', "at least one path"),
     ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0], '
      '[NaN, 1]], "delta_t": [1], "delta": [0], "ac": [0.01], "T": [0.8]}]}', "NaN"),
@@ -55,6 +59,37 @@ def test_bad_plan_files(tmp_path, content: str, fragment: str) -> None:
     with pytest.raises(InputError, match=fragment) as info:
         Drawing.load(path)
     assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize("field, value, fragment", [
+    ("T", -1.0, r"paths\[0\]\.T\[1\] is -1, but it is a duration, positive"),
+    ("ac", 1.5, r"\.ac\[1\] is 1\.5, but it is the lognormal's shape Ac, between 0 and 1"),
+    ("delta_t", -5.0, r"\.delta_t\[1\] is -5, but it is an overlap"),
+    ("delta", 100.0, r"\.delta\[1\] is 100, but it is an arc's turn"),
+    ("width", -3.0, r"\.width is -3, but a pen's width is 0 or more"),
+    ("delta_t", [0.5], r"\.delta_t has 1 values for its 2 sub-movements"),
+])
+def test_a_plan_whose_values_are_no_movement_is_refused(tmp_path, field: str, value: object,
+                                                       fragment: str) -> None:
+    """An edited plan.json with a negative duration, a shape outside (0, 1), onsets that go
+    back, an arc of 16 turns or a negative pen: every command that reads plans (render,
+    plot, simulate, evaluate) refuses it in one sentence naming the value, instead of a
+    NaN error deep inside (or an evaluation that runs for hours)."""
+    path = tmp_path / "plan.json"
+    plan = {"points": [[0, 0], [5, 5], [9, 2]], "delta_t": [1.0, 0.5], "delta": [0.1, 0.2],
+            "ac": [0.01, 0.01], "T": [0.8, 0.8], "width": 3.0}
+    if isinstance(value, list):
+        plan[field] = value
+    elif field == "width":
+        plan[field] = value
+    else:
+        plan[field][1] = value
+    path.write_text(json.dumps({"version": 1, "canvas": {"width": 10, "height": 10},
+                                "paths": [plan]}))
+    with pytest.raises(InputError, match=fragment) as info:
+        Drawing.load(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: ") and message.endswith(".")
 
 
 def test_missing_plan_index(tmp_path) -> None:

@@ -137,6 +137,56 @@ class MotorPlan:
 
 _TENSORS = ("points", "delta_t", "delta", "ac", "T")
 
+#: the other JSON files a job writes, told by keys only they have, so that one given for a
+#: plan.json is named: (what it is, its keys)
+OTHER_FILES = (("a job.json", {"spec", "versions"}), ("a report.json", {"wall_s", "kind"}),
+               ("an input.json", {"traces"}), ("a benchmark's summary", {"items", "columns"}))
+
+#: what each value of a sub-movement must be for the model to mean a movement: (field,
+#: test, what it is); the onsets advance by Δt·T (Δt ≥ 0), σ = √(−ln(1 − Ac)) needs
+#: 0 < Ac < 1, and an arc turns at most a full turn
+RANGES: tuple[tuple[str, object, str], ...] = (
+    ("T", lambda v: v > 0, "a duration, positive"),
+    ("ac", lambda v: (v > 0) & (v < 1), "the lognormal's shape Ac, between 0 and 1"),
+    ("delta_t", lambda v: v >= 0, "an overlap Δt, 0 or more (onsets never go back)"),
+    ("delta", lambda v: v.abs() <= 2 * math.pi, "an arc's turn δ, at most 2π either way"),
+)
+
+
+def _check_counts(path: object, where: str) -> None:
+    """Refuse, in one sentence, a path of plan.json with fewer than two points or with
+    per-sub-movement values not one for each of its sub-movements."""
+    if not isinstance(path, dict) or not isinstance(path.get("points"), list):
+        return  # the parse names what is missing
+    m = len(path["points"]) - 1
+    if m < 1:
+        raise InputError(f"{where} has {m + 1} point; a path needs its start and at least "
+                         "one target; refit the plan or restore its values.")
+    for name in ("delta_t", "delta", "ac", "T"):
+        values = path.get(name)
+        if isinstance(values, list) and len(values) != m:
+            raise InputError(f"{where}.{name} has {len(values)} values for its {m} "
+                             "sub-movements (one each); refit the plan or restore its "
+                             "values.")
+
+
+def _check_ranges(plan: MotorPlan, where: str) -> None:
+    """Refuse, in one sentence naming the path and the value, a plan whose values are not
+    a movement's (:data:`RANGES`), a width below 0 or a negative radius."""
+    for name, test, meaning in RANGES:
+        values = getattr(plan, name)
+        bad = ~test(values)  # type: ignore[operator]
+        if bool(bad.any()):
+            k = int(bad.nonzero()[0, 0])
+            raise InputError(f"{where}.{name}[{k}] is {float(values[k]):g}, but it is "
+                             f"{meaning}; refit the plan or restore its values.")
+    if not plan.width >= 0:
+        raise InputError(f"{where}.width is {plan.width:g}, but a pen's width is 0 or more; "
+                         "refit the plan or restore its values.")
+    if plan.points.shape[1] == 3 and bool((plan.points[:, 2] < 0).any()):
+        raise InputError(f"{where}.points hold a negative radius (their third value); "
+                         "refit the plan or restore its values.")
+
 
 @dataclass
 class Drawing:
@@ -157,6 +207,15 @@ class Drawing:
 
     @classmethod
     def from_dict(cls, d: dict, source: str = "plan.json") -> Drawing:
+        if not isinstance(d, dict):
+            raise InputError(f"{source}: not a plan.json (its top level is a "
+                             f"{type(d).__name__}, not an object); give a fit's plan.json.")
+        other = next((name for name, keys in OTHER_FILES if keys <= d.keys()), None)
+        if other is not None and not isinstance(d.get("paths"), list):
+            raise InputError(f"{source}: is {other}, not a plan.json; give the plan.json "
+                             "beside it.")
+        for i, path in enumerate(d.get("paths") or []):
+            _check_counts(path, f"{source}: paths[{i}]")
         try:
             if d.get("version") != PLAN_FORMAT_VERSION:
                 raise InputError(
@@ -177,6 +236,8 @@ class Drawing:
                 raise InputError(f"{source}: holds NaN or infinite values.")
         if not plans or not all(math.isfinite(c) and c > 0 for c in canvas):
             raise InputError(f"{source}: needs a positive canvas and at least one path.")
+        for i, p in enumerate(plans):
+            _check_ranges(p, f"{source}: paths[{i}]")
         return cls(canvas, plans)
 
     @classmethod
