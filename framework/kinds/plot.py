@@ -51,6 +51,35 @@ def feed_correlation(strokes: list[PlotStroke]) -> float:
     return float(np.corrcoef(feeds, speed)[0, 1])
 
 
+#: samples per path of the motion checked against the paper before anything is timed
+PAPER_SAMPLES = 512
+
+
+def _check_on_paper(drawing: Any, mapping: Any, paper: tuple[float, float],
+                    plan_file: str) -> None:
+    """Refuse a plan whose motion leaves the sheet (its points lie off its canvas: an
+    edited plan, or a plan of another canvas): G-code past the paper drives the pen
+    off it, or into the machine's end stops. Checked on :data:`PAPER_SAMPLES` samples a
+    path, before the timing (whose samples follow the motion's length)."""
+    import torch
+
+    from inkmotion.sigma_lognormal.kinematics import kinematics
+
+    with torch.no_grad():
+        xy = np.vstack([kinematics(plan, torch.linspace(0.0, float(plan.end_time),
+                                                        PAPER_SAMPLES)).positions[:, :2]
+                        .double().numpy() for plan in drawing.plans])
+    uv = mapping.px_to_plane(xy)
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    if lo.min() >= -0.5 and hi[0] <= paper[0] + 0.5 and hi[1] <= paper[1] + 0.5:
+        return
+    raise InputError(f"{plan_file}: the motion leaves the {paper[0]:g} × {paper[1]:g} mm "
+                     f"paper (it reaches x {lo[0]:.0f} to {hi[0]:.0f} mm, y {lo[1]:.0f} to "
+                     f"{hi[1]:.0f} mm: its points lie off its {drawing.canvas[0]:g} × "
+                     f"{drawing.canvas[1]:g} px canvas); refit the plan or restore its "
+                     "points.")
+
+
 def run_plot(job: Job) -> dict[str, Any]:
     """Time, order and write the plot (module docstring); returns the report."""
     from inkmotion.plotter.gcode import write_gcode
@@ -81,6 +110,7 @@ def run_plot(job: Job) -> dict[str, Any]:
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
     paper = paper_size(p.paper, p.orientation, drawing.canvas)
     mapping = place_on_paper(drawing.canvas, paper, p.margin, p.scale)
+    _check_on_paper(drawing, mapping, paper, plan_file)
     timing = time_for_plotter(drawing, mapping, pens, v_max=v_max, a_max=a_max,
                               accel=machine.max_accel, deviation=machine.junction_deviation,
                               step=p.step, junctions=p.junctions)
