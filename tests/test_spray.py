@@ -161,6 +161,22 @@ def test_render_writes_pngs_at_any_size(tmp_path: Path) -> None:
     assert 10 <= int(column.sum()) <= 14
 
 
+def test_a_large_raster_print_is_drawn_in_batches_as_one(monkeypatch) -> None:
+    """A print is drawn in batches of segments (the memory of one call is bounded: a
+    16384-px print took 15 GB at once): the per-pixel maximum of the batches is the image
+    of all the segments in one call, exactly."""
+    from inkmotion.plugin_host import plugin
+    from inkmotion.rendering import render_plan as rp
+
+    drawing = Drawing((300.0, 200.0), [MotorPlan.from_points(
+        [[20, 30], [150, 180], [280, 40], [60, 100]], delta_t=0.5, width=4.0)])
+    raster = plugin("renderer", "raster")
+    whole = rp.raster_image(drawing, raster, 900, (0.1, 0.1, 0.1), (1.0, 1.0, 1.0))
+    monkeypatch.setattr(rp, "BATCH_PIXELS", 20_000)  # a batch of a few segments
+    batched = rp.raster_image(drawing, raster, 900, (0.1, 0.1, 0.1), (1.0, 1.0, 1.0))
+    assert np.array_equal(whole, batched) and whole.min() < 40
+
+
 @pytest.mark.parametrize("args, fragment", [
     (["--colour", "reddish"], "--colour 'reddish' is not a colour"),
     (["--renderer", "oil"], "--renderer 'oil': render draws with raster or spray"),

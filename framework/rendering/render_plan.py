@@ -34,23 +34,44 @@ def parse_colour(text: str, what: str) -> tuple[float, float, float]:
     return tuple(int(value[i:i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
 
 
+#: the most pixel evaluations (pieces × the pixels around each) of one renderer call:
+#: a large print is drawn in batches of segments, each its own call, bounding the memory
+#: (the image is the per-pixel maximum of the batches' images: the same image)
+BATCH_PIXELS = 20_000_000
+
+
 def raster_image(drawing: object, renderer: Renderer, size: int,
                  colour: tuple[float, float, float],
                  paper: tuple[float, float, float]) -> np.ndarray:
     """RGB (H, W, 3) uint8 of the plan drawn by ``renderer`` (the 'raster' plugin) at
-    ``size`` px."""
+    ``size`` px, in batches of segments of at most :data:`BATCH_PIXELS` evaluations."""
     import torch
 
-    from inkmotion.rendering.drawing import render_plans
+    from inkmotion.geometry.bezier import bezier_segments
+    from inkmotion.rendering.raster import PIECE_LENGTH, piece_counts
 
     canvas = drawing.canvas  # type: ignore[attr-defined]
     scale = size / max(float(canvas[0]), float(canvas[1]))
     width, height = max(1, round(canvas[0] * scale)), max(1, round(canvas[1] * scale))
-    coverage = render_plans(renderer, drawing.plans, (width, height), scale,  # type: ignore
-                            dtype=torch.float32)
-    c = coverage.numpy()[..., None]
-    rgb = np.asarray(paper)[None, None] * (1.0 - c) + np.asarray(colour)[None, None] * c
-    return np.clip(np.round(rgb * 255.0), 0, 255).astype(np.uint8)
+    with torch.no_grad():
+        plans = drawing.plans  # type: ignore[attr-defined]
+        segments = torch.cat([bezier_segments(p).detach().float() * scale for p in plans])
+        widths = torch.cat([torch.full((len(bezier_segments(p)),), p.width * scale)
+                            for p in plans])
+        reach = (segments[..., 2].amax(1) if segments.shape[-1] == 3 else widths / 2) + 2
+        cost = piece_counts(segments, reach, height, width) * (PIECE_LENGTH + 2 * reach) ** 2
+        batch = torch.cumsum(cost, 0) // BATCH_PIXELS  # (S,) each segment's batch
+        coverage = torch.zeros(height, width)
+        for k in torch.unique(batch).tolist():
+            mine = batch == k
+            coverage = torch.maximum(coverage, renderer(segments[mine], widths[mine], height,
+                                                        width))
+    c = coverage.numpy()
+    rgb = np.empty((*c.shape, 3), np.uint8)  # a channel at a time: a print is 10⁸ pixels
+    for k in range(3):
+        rgb[..., k] = np.clip(np.round(255.0 * (paper[k] + (colour[k] - paper[k]) * c)),
+                              0, 255)
+    return rgb
 
 
 def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "raster",
