@@ -18,6 +18,10 @@ def read_json(path: str | Path, error: type[InkmotionError], what: str = "file")
         return json.loads(Path(path).read_text())
     except FileNotFoundError as exc:
         raise error(f"{path}: no such {what}.") from exc
+    except IsADirectoryError as exc:
+        raise error(f"{path}: is a folder, not a {what}; give the file in it.") from exc
+    except OSError as exc:
+        raise error(f"{path}: the {what} cannot be read ({exc.strerror}).") from exc
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise error(f"{path}: is not valid JSON ({exc}).") from exc
 

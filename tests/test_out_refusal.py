@@ -146,3 +146,26 @@ def test_force_replaces_results_only(tmp_path: Path) -> None:
         "would delete; choose another --out.")
     (mine / "summary.json").write_text("{}")
     refuse_to_overwrite(mine, True)
+
+
+def test_the_folder_one_is_in_is_never_the_out(tmp_path: Path, monkeypatch) -> None:
+    """``--out .`` (or a folder holding the current one) would have the results replace
+    the folder the user's shell is in: refused even when it is empty or with --force."""
+    here = tmp_path / "work"
+    here.mkdir()
+    monkeypatch.chdir(here)
+    for out, force in ((Path("."), False), (Path(".."), True), (here, True)):
+        with pytest.raises(OutputExistsError, match="is the folder you are in"):
+            refuse_to_overwrite(out, force)
+    refuse_to_overwrite(Path("results"), False)
+
+
+def test_render_makes_the_folder_of_its_image(tmp_path: Path) -> None:
+    plan = Path(__file__).parent / "data" / "v4_jobs" / "fit" / "plan.json"
+    image = tmp_path / "new" / "deeper" / "tag.png"
+    res = inkmotion("render", str(plan), "--size", "64", "--out", str(image))
+    assert res.returncode == 0, res.stderr
+    assert image.read_bytes()[:4] == b"\x89PNG"
+    folder = inkmotion("render", str(plan.parent), "--out", str(tmp_path / "x.png"))
+    assert folder.returncode == 1 and folder.stderr.strip() == (
+        f"error: {plan.parent}: is a folder, not a plan file; give the file in it.")

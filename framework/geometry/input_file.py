@@ -12,12 +12,12 @@ from inkmotion.errors import InputError
 MAX_FILE_BYTES = 50 * 1024 * 1024
 
 
-def missing_file(source: str) -> str | None:
+def missing_file(source: str, what: str = "drawing") -> str | None:
     """The sentence saying why ``source`` is not a file to read (a folder, or nothing at
-    that path), or None when it is one."""
+    that path), or None when it is one; ``what`` names the input (the drawing, a plan)."""
     path = Path(source)
     if path.is_dir():
-        return f"{source}: is a folder, not a file; give the drawing's file."
+        return f"{source}: is a folder, not a file; give the {what}'s file."
     if not path.is_file():
         return f"{source}: no such file; check the path."
     return None

@@ -141,6 +141,6 @@ def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> N
         value = locate(value)  # sample:NAME -> its shipped file; an unknown name is refused
         if info.form == "source" and is_scheme(value):
             continue
-        problem = missing_file(value)
+        problem = missing_file(value, name)
         if problem is not None:
             raise SpecError(problem)

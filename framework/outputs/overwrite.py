@@ -42,6 +42,10 @@ def refuse_to_overwrite(out: Path, force: bool, *, folder: bool = True,
     out = Path(out)
     if folder and out.exists() and not out.is_dir():
         raise OutputExistsError(f"{out} is a file, not a folder; choose another --out.")
+    if folder and _within(Path.cwd(), out, file=False):
+        raise OutputExistsError(f"--out {out} is the folder you are in (or holds it), which "
+                                "the results would replace; give a new folder, e.g. --out "
+                                "results.")
     if not folder and out.is_dir():
         raise OutputExistsError(f"{out} is a folder; give a file name with --out.")
     if not out.exists():
@@ -71,9 +75,11 @@ def refuse_to_overwrite(out: Path, force: bool, *, folder: bool = True,
                                 "replace them, or choose another --out.")
 
 
-def _within(path: Path, folder: Path) -> bool:
-    """Whether the existing file ``path`` lies in ``folder`` (at any depth)."""
+def _within(path: Path, folder: Path, file: bool = True) -> bool:
+    """Whether ``path`` (an existing file, or with ``file=False`` any path) is ``folder``
+    or lies in it (at any depth)."""
     try:
-        return path.is_file() and path.resolve().is_relative_to(folder.resolve())
+        return (not file or path.is_file()) and path.resolve().is_relative_to(
+            folder.resolve())
     except OSError:
         return False

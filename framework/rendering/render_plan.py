@@ -101,13 +101,15 @@ def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "rast
 
 
 def write_rgb_png(path: Path, rgb: np.ndarray) -> None:
-    """An RGB (H, W, 3) uint8 image as a PNG, written atomically."""
+    """An RGB (H, W, 3) uint8 image as a PNG, written atomically (its folder made when
+    missing, as a run's --out is)."""
     import cv2
 
     from inkmotion.outputs.atomic import write_bytes_atomic
 
     ok, data = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     assert ok, "OpenCV could not encode the PNG"
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     write_bytes_atomic(path, data.tobytes())
 
 
