@@ -110,6 +110,33 @@ def test_reports_are_strict_json_with_null_for_a_figure_that_does_not_apply(
     assert plain.returncode == 0 and "nan" not in plain.stdout, plain.stdout
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM")
+def test_sigterm_leaves_nothing_half_written(tmp_path: Path) -> None:
+    """``kill`` or ``timeout`` (SIGTERM) mid-fit ends the command as Ctrl-C does: no
+    output folder and no staging folder left (one held recording.rrd), and it says so."""
+    import signal
+    import time
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "inkmotion", "run", "fit", "text:hello",
+                             "--steps", "5000", "--size", "96", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp_path.glob("out.partial-*/*")):  # the job has begun writing
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.1)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert f"interrupted; nothing was written to {out}" in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_benchmark_json_and_force(tmp_path: Path) -> None:
     """``benchmark --json`` prints the summary alone on stdout; a second run onto the
     same folder is refused in one sentence, and replaces it with ``--force``."""

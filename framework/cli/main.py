@@ -13,6 +13,7 @@ Errors are reported by :mod:`inkmotion.cli.errors`.
 from __future__ import annotations
 
 import json
+import signal
 import sys
 from typing import Annotated, Optional
 
@@ -157,6 +158,7 @@ def main() -> None:
     from inkmotion.cli.help_text import plain_flags, reflow_tree
 
     plain_flags()
+    signal.signal(signal.SIGTERM, _terminated)
     try:
         code = reflow_tree(typer.main.get_command(app)).main(standalone_mode=False)
     except InkmotionError as exc:  # a last guard: user errors never show a traceback
@@ -168,6 +170,13 @@ def main() -> None:
         report("interrupted.")
         sys.exit(130)
     sys.exit(code if isinstance(code, int) else 0)
+
+
+def _terminated(signum: int, frame: object) -> None:
+    """SIGTERM (``kill``, ``timeout``, a container stopped) ends a command as Ctrl-C does:
+    a job's staging folder is removed and nothing half-written is left. A command that
+    manages its own signals (a worker, the studio, a robot in motion) sets its own."""
+    raise KeyboardInterrupt
 
 
 def usage_error(exc: UsageProblem) -> int:
