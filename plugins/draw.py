@@ -34,7 +34,7 @@ class DrawParams:
 
     robot: str = param("", "Hostname or IP address of the robot's FCI (required).")
     setup: str = param("", "Setup TOML (plane, paper, pen, limits, home); empty: the shipped "
-                       "default. Teach one with `inkmotion robot teach`.")
+                       "default. Teach one with `inkmotion robot teach`.", file=True)
     v_max: float = param(0.0, "Pen speed limit, m/s (0: the setup's).", minimum=0, maximum=1.7)
     a_max: float = param(0.0, "Pen acceleration limit, m/s² (0: the setup's).", minimum=0,
                          maximum=13.0)

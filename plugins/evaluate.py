@@ -40,9 +40,10 @@ class EvaluateParams:
                       "over the drawing (the plots show the longest).", minimum=-1)
     rate: float = param(1000.0, "Sampling rate of the timings, Hz.", minimum=50,
                         maximum=10_000)
-    setup: str = param("", "Robot setup TOML whose paper maps px to metres (empty: default).")
+    setup: str = param("", "Robot setup TOML whose paper maps px to metres (empty: default).",
+                       file=True)
     recording: str = param("", "The GML/JSON the plan was fitted to, for the agreement with "
-                           "its recorded speed (when it has time stamps).")
+                           "its recorded speed (when it has time stamps).", file=True)
 
 
 class EvaluateKind:

@@ -31,7 +31,8 @@ class PlotParams:
     machine: str = param("grbl", "Machine profile: grbl (servo pen, M3/M5), marlin or klipper "
                          "(pen on Z), or custom (--machine-file).",
                          choices=("grbl", "marlin", "klipper", "custom"))
-    machine_file: str = param("", "TOML file with a [machine] table, for --machine custom.")
+    machine_file: str = param("", "TOML file with a [machine] table, for --machine custom.",
+                              file=True)
     paper: str = param("A4", "Paper: A5, A4, A3, letter or WIDTHxHEIGHT in mm.")
     orientation: str = param("auto", "Paper orientation: portrait, landscape or auto (the "
                              "canvas's).", choices=("auto", "portrait", "landscape"))

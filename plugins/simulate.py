@@ -35,7 +35,7 @@ class SimulateParams:
     """Parameters of a robot run (most settings live in the setup TOML)."""
 
     setup: str = param("", "Setup TOML (plane, paper, pen, limits, home); empty: the shipped "
-                       "default (inkmotion.robot/default_setup.toml).")
+                       "default (inkmotion.robot/default_setup.toml).", file=True)
     v_max: float = param(0.0, "Pen speed limit, m/s (0: the setup's).", minimum=0, maximum=1.7)
     a_max: float = param(0.0, "Pen acceleration limit, m/s² (0: the setup's).", minimum=0,
                          maximum=13.0)

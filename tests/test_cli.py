@@ -137,6 +137,26 @@ def test_sigterm_leaves_nothing_half_written(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_run_config_reproduces_a_job_from_any_folder(tmp_path: Path) -> None:
+    """A file given by a relative path is recorded absolute in job.json, so ``run
+    --config`` of it works from another folder (the gallery prints that command)."""
+    here = tmp_path / "here"
+    here.mkdir()
+    (here / "tag.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg" width="200" '
+                                  'height="100"><path d="M10 10 C 60 90, 120 0, 190 80" '
+                                  'stroke="black" fill="none"/></svg>')
+    first = inkmotion("run", "fit", "tag.svg", "--steps", "5", "--size", "96", "--out", "a",
+                      "--no-record", cwd=here)
+    assert first.returncode == 0, first.stderr
+    spec = json.loads((here / "a" / "job.json").read_text())["spec"]
+    assert spec["inputs"]["drawing"] == str(here / "tag.svg")
+    again = inkmotion("run", "--config", str(here / "a" / "job.json"), "--out", "b",
+                      "--no-record", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert (json.loads((tmp_path / "b" / "plan.json").read_text())
+            == json.loads((here / "a" / "plan.json").read_text()))
+
+
 def test_benchmark_json_and_force(tmp_path: Path) -> None:
     """``benchmark --json`` prints the summary alone on stdout; a second run onto the
     same folder is refused in one sentence, and replaces it with ``--force``."""

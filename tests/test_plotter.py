@@ -250,6 +250,7 @@ def test_several_pens_go_to_one_file_and_one_layer_each(tmp_path: Path) -> None:
     ({"a_max": 5000.0}, "above the grbl machine's"),
     ({"paper": "B7"}, "not a paper size"),
     ({"margin": 120.0}, "leaves no room"),
+    ({"machine_file": __file__}, "applies to --machine custom only"),
 ])
 def test_bad_inputs_are_refused_in_one_sentence_and_nothing_is_written(
         tmp_path: Path, params: dict, message: str) -> None:

@@ -19,6 +19,7 @@ its own table, sized to its own longest option name, so names are never cut.
 from __future__ import annotations
 
 import inspect
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, Optional
@@ -126,7 +127,7 @@ def spec_from_options(kind_name: str, inputs: list[str] | tuple[str, ...],
         raise SpecError(f"The {kind_name} job takes {len(declared)} input(s) "
                         f"({', '.join(i.name for i in declared)}), got {len(inputs)}.")
     for info, value in zip(declared, inputs, strict=False):
-        spec.inputs[info.name] = value
+        spec.inputs[info.name] = _absolute(value) if info.form != "text" else value
     for info in SHELL_OPTIONS:
         if values.get(info.name) is not None:
             setattr(spec, info.name, check_scalar(info, values[info.name], "options"))
@@ -136,7 +137,7 @@ def spec_from_options(kind_name: str, inputs: list[str] | tuple[str, ...],
         if value is None or (info.many and not value):
             continue
         if info.plugin_kind is None:
-            spec.params[info.name] = value
+            spec.params[info.name] = _absolute(value) if info.file else value
         elif info.many:
             spec.params[info.name] = [{"name": v} for v in value]
         else:
@@ -149,6 +150,17 @@ def spec_from_options(kind_name: str, inputs: list[str] | tuple[str, ...],
             continue
         _set_plugin_option(spec, info, plugin_name, opt, value)
     return spec
+
+
+def _absolute(value: Any) -> Any:
+    """A relative path to an existing file given on the command line, made absolute: the
+    job.json then runs again from any folder (``run --config``, the gallery's command);
+    anything else (``sample:NAME``, ``text:WORD``, a name, a missing file, said later) as
+    given."""
+    if isinstance(value, str) and value and not Path(value).is_absolute() \
+            and Path(value).is_file():
+        return os.path.abspath(value)
+    return value
 
 
 def _set_plugin_option(spec: JobSpec, info: ParamInfo, plugin_name: str, opt: ParamInfo,

@@ -39,17 +39,20 @@ class PluginChoice:
 
 def param(default: Any, help: str, *, minimum: float | None = None,
           maximum: float | None = None, choices: tuple[str, ...] | None = None,
-          flag: str | None = None, earlier: dict[int, Any] | None = None) -> Any:
+          flag: str | None = None, earlier: dict[int, Any] | None = None,
+          file: bool = False) -> Any:
     """A parameter field: its default, one line of help, optional bounds and choices.
 
     ``flag`` names the command-line option when it should differ from ``--field-name``.
+    ``file``: the value names a file, which the command line records as an absolute path
+    (so ``run --config job.json`` reproduces the job from any folder).
     ``earlier``: the defaults of older spec versions where they differ, ``{version: value}``
     (a version takes the value of the nearest listed version at or above it, else
     ``default``, :func:`default_for`), so a job.json of an older version that leaves the
     field out runs as it did. The default and its history are written here only.
     """
     meta = {"help": help, "minimum": minimum, "maximum": maximum, "choices": choices,
-            "flag": flag, "earlier": dict(earlier or {})}
+            "flag": flag, "earlier": dict(earlier or {}), "file": file}
     return field(default=default, metadata=meta)
 
 
@@ -106,6 +109,7 @@ class ParamInfo:
     plugin_kind: str | None = None
     many: bool = False
     flag: str | None = None
+    file: bool = False  # the value names a file
 
     @property
     def option(self) -> str:
@@ -130,7 +134,7 @@ def describe(cls: type) -> list[ParamInfo]:
             name=f.name, type=base, default=default, help=meta.get("help", ""),
             optional=optional, minimum=meta.get("minimum"), maximum=meta.get("maximum"),
             choices=meta.get("choices"), plugin_kind=meta.get("plugin_kind"),
-            many=bool(meta.get("many")), flag=meta.get("flag")))
+            many=bool(meta.get("many")), flag=meta.get("flag"), file=bool(meta.get("file"))))
     return out
 
 

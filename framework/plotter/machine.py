@@ -64,6 +64,10 @@ def load_machine(name: str, file: str | Path | None = None) -> Machine:
     """The profile ``name`` (``grbl``, ``marlin``, ``klipper``) or, for ``custom``, the
     ``[machine]`` table of the TOML ``file``; one sentence naming what is wrong otherwise."""
     if name != "custom":
+        if file:
+            raise InputError(f"--machine-file {file} applies to --machine custom only (this "
+                             f"plot's machine is {name}); add --machine custom to plot with "
+                             "that file, or leave --machine-file out.")
         if name not in MACHINES:
             raise InputError(f"machine {name!r} is not one of {', '.join(MACHINES)} or custom;"
                              " pick one, or pass --machine custom --machine-file FILE.toml.")
