@@ -56,6 +56,15 @@ def test_evaluate_writes_the_table_and_plots(tmp_path: Path) -> None:
                     str(tmp_path / "untimed"), "--no-record")
     assert res.returncode == 0, res.stderr
     assert "warning: text:hi: the points carry no time stamps" in res.stderr
+    # a timed recording of another drawing: its speed agreement is computed but said to
+    # say little, for its strokes lie far from the plan's motion
+    res = inkmotion("evaluate", str(fit / "plan.json"), "--recording", "sample:tempt-1",
+                    "--out", str(tmp_path / "other"), "--no-record")
+    assert res.returncode == 0, res.stderr
+    assert "warning: sample:tempt-1: its strokes lie" in res.stderr
+    assert "it does not look like the drawing the plan was fitted to" in res.stderr
+    human = json.loads((tmp_path / "other" / "evaluation.json").read_text())["human"]
+    assert human["apart_px"] > 15 and human["has_times"]
 
 
 def test_msj_at_equal_duration_removes_the_time_scaling() -> None:

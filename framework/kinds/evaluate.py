@@ -83,7 +83,7 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     print_table(table, ratios, f"evaluation, {len(indices)} path(s)")
     metrics = {f"{m}_{k}_ratio": v for m, r in ratios.items() for k, v in r.items()}
     human = doc.get("human") or {}
-    warnings = [human["note"]] if not human.get("has_times", True) else []
+    warnings = [human["note"]] if "note" in human else []
     return {**doc, "metrics": metrics, **({"warnings": warnings} if warnings else {})}
 
 
