@@ -59,12 +59,13 @@ class StepState:
 
     def shown(self) -> dict[str, Any]:
         """What a progress display shows of this step: the kind's ``figures``, else the
-        total loss, T_end and the loss terms (0-d tensors not read yet)."""
+        total loss, T_end (the mean over paths, so named: report.json's ``final_t_end`` is
+        the drawing's total) and the loss terms (0-d tensors not read yet)."""
         if self.figures is not None:
             return dict(self.figures)
         terms = {k: v for k, v in self.losses.items() if k != "total"}
         total = {"loss": self.losses["total"]} if "total" in self.losses else {}
-        return {**total, "T_end": self.t_end, **terms}
+        return {**total, "T_end/path": self.t_end, **terms}
 
 
 class Observer(Protocol):

@@ -33,7 +33,7 @@ def _fit_state(step: int, total: int) -> StepState:
 
 def test_an_optimisation_shows_its_loss_and_t_end_first() -> None:
     assert format_figures(_fit_state(1, 1).shown()) == \
-        "loss=1.5, T_end=3, mse=0.25, smooth=0.5"
+        "loss=1.5, T_end/path=3, mse=0.25, smooth=0.5"
 
 
 def test_a_kind_with_figures_shows_those_and_nothing_else() -> None:
@@ -164,7 +164,7 @@ def test_a_log_gets_a_line_every_tenth_not_a_redrawn_bar(
     lines = err.splitlines()
     assert "\r" not in err and len(lines) == 11, err  # step 1, then 60, 120, ..., 600
     assert lines[0].startswith("fit: 1/600 ") and lines[-1].startswith("fit: 600/600 ")
-    assert "loss=1.5, T_end=3" in lines[-1]
+    assert "loss=1.5, T_end/path=3" in lines[-1]
     # the device is read only on the steps that write a line
     assert sum(1 for c in counts if c) == 11, counts
 

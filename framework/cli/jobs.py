@@ -160,7 +160,7 @@ def _progress_info(r: JobRecord) -> str:
     if r.losses:
         info += f"  loss {r.losses.get('total', 0.0):.4g}"
     if r.t_end is not None:
-        info += f"  T_end {r.t_end:.3g}"
+        info += f"  T_end/path {r.t_end:.3g}"  # the mean over paths (the progress's)
     return info
 
 
