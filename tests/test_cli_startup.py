@@ -158,6 +158,12 @@ def test_view_of_a_missing_or_empty_folder_is_one_sentence(
     assert empty["code"] == 1 and empty["loaded"] == []
     assert empty["stderr"].startswith(f"error: {tmp_path} holds no recording.rrd")
     assert len(empty["stderr"].strip().splitlines()) == 1
+    (tmp_path / "plan.json").write_text("{}")  # a results file that is no recording
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")
+    plan = probe(env, "view", str(tmp_path / "plan.json"), "--print")
+    assert plan["code"] == 1 and plan["stderr"].strip() == (
+        f"error: {tmp_path / 'plan.json'}: not a recording (a .rrd file); give "
+        f"{tmp_path / 'recording.rrd'} or its folder {tmp_path}.")
 
 
 def test_waiting_on_a_failed_job_ends_in_one_error_line(

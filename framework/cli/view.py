@@ -36,6 +36,11 @@ def recording_path(target: str) -> Path:
     from inkmotion.recording import RECORDING_NAME
 
     p = Path(target)
+    if p.is_file() and p.suffix != ".rrd":
+        folder = p.parent if (p.parent / RECORDING_NAME).is_file() else None
+        raise SpecError(f"{p}: not a recording (a .rrd file); give "
+                        + (f"{folder / RECORDING_NAME} or its folder {folder}."
+                           if folder is not None else "a run's .rrd file or its folder."))
     if p.suffix == ".rrd" or p.is_file():
         if not p.is_file():
             raise SpecError(f"{p}: no such recording file; check the path.")

@@ -229,8 +229,9 @@ def collect(*, store: bool = True, folders: Iterable[str | Path] = (),
     for root in folders:
         root = Path(root)
         if not root.is_dir():
-            raise SpecError(f"--from {root}: no such folder; give a folder of results "
-                            "written by `inkmotion run ... --out DIR`.")
+            what = "is a file, not a folder" if root.is_file() else "no such folder"
+            raise SpecError(f"--from {root}: {what}; give a folder of results written by "
+                            "`inkmotion run ... --out DIR`.")
         found = find_result_folders(root)
         if not found:
             raise SpecError(f"--from {root}: no results in it (no job.json at most 3 levels "

@@ -46,7 +46,8 @@ def write_preview(path: Path, strokes: list[PlotStroke], paper: tuple[float, flo
     ax.set_ylabel("Y (mm)")
     ax.set_title(title, fontsize=8)
     fig.tight_layout()
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight", pad_inches=0.1)  # an equal-aspect portrait
+    # sheet leaves the axes narrower than tight_layout plans for: the Y label was cut
 
 
 def write_feed_plot(path: Path, strokes: list[PlotStroke]) -> None:
