@@ -219,18 +219,18 @@ def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.nd
     fig.savefig(path)
 
 
-#: mean distance (px at 350) from a recording to a plan's motion past which the recording
-#: is not the drawing the plan was fitted to (a fit's poor-fit warning is at 0.6 px)
-APART_PX = 15.0
+#: mean distance from a recording to a plan's motion, as a share of the canvas's longer
+#: side, past which the recording is not the drawing the plan was fitted to (15 px on a
+#: 350-px canvas; a fit's mean goal is 0.6 px there)
+APART_SHARE = 15.0 / 350.0
 
 
-def _apart(recorded: list[np.ndarray], fitted: list[np.ndarray], size: float) -> float:
-    """Mean Chamfer distance between the recording and the motion, px on a 350-px canvas."""
-    from inkmotion.fitting.quality import REFERENCE_SIZE
+def _apart(recorded: list[np.ndarray], fitted: list[np.ndarray]) -> float:
+    """Mean Chamfer distance between the recording and the motion, px on the canvas."""
     from inkmotion.geometry.chamfer import chamfer
 
     mean, _ = chamfer([r[:, :2] for r in recorded], [f[:, :2] for f in fitted], spacing=1.0)
-    return mean * REFERENCE_SIZE / size
+    return mean
 
 
 def _pair(recorded: list[np.ndarray], fitted: list[np.ndarray]) -> list[int]:
@@ -271,7 +271,7 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
                         "the same, or running backwards), so there is no recorded speed to "
                         "compare with."}
     samples = [sample(plan) for plan in drawing.plans]
-    apart = _apart(traces.strokes, [s.positions for s in samples], max(drawing.canvas))
+    apart = _apart(traces.strokes, [s.positions for s in samples])
     index = _pair(traces.strokes, [s.positions for s in samples])
     paired = [i for i, j in enumerate(index) if j >= 0]
     kept = [i for i in paired if advances(times[i])]  # a stroke stamped at one time has no speed
@@ -283,11 +283,12 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
     profiles = [recorded_speed(p, t, rate=rate, smooth_s=smooth_s, unit="s")[:2]
                 for p, t in recorded]
     plot_speed_profiles(png, profiles, [(arc_length(p), s) for p, s in fit])
-    mismatch = {} if apart <= APART_PX else {
+    size = max(drawing.canvas)
+    mismatch = {} if apart <= APART_SHARE * size else {
         "note": f"{source}: its strokes lie {apart:.0f} px from the plan's motion on average "
-                f"(at 350 px; a fit's lie within a few): it does not look like the drawing the "
-                "plan was fitted to, so the speed agreement says little; give the recording "
-                "the plan was fitted to"}
+                f"(on its {size:g}-px canvas; a fit's lie within a pixel or two): it does not "
+                "look like the drawing the plan was fitted to, so the speed agreement says "
+                "little; give the recording the plan was fitted to"}
     return {"has_times": True, "time_unit": unit, "strokes_paired": len(kept),
             "strokes_untimed": len(paired) - len(kept), "apart_px": apart,
             "plot": Path(png).name, **result, **mismatch}

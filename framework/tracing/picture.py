@@ -374,7 +374,7 @@ def _picture_of(source: str, grey: np.ndarray, scale: float, notes: list[str],
     ink = ink_map(grey)
     if page is not None:
         ink[~page] = 0.0
-        notes.append(f"the page was found in the photo, and what lies around it "
+        notes.append(f"the page was found in the picture, and what lies around it "
                      f"({100 * (1 - page.mean()):.0f} % of the picture) was left out")
     level = ink_threshold(ink)
     if level is not None and level < GRAINY * grain(ink, level):
@@ -618,8 +618,8 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
     if mid > max(0.05, 2.0 * share):
         found = f"{100 * mid:.0f} % of the page is in half-tones"
         raise InputError(_beside_the_page(source, found, tones, band) or (
-            f"{source}: {found}, not a line drawing (a photo is drawn by the 'abstract' "
-            "kind); use a picture of line art on plain paper."))
+            f"{source}: {found}, not a line drawing (a photo is drawn by `inkmotion run "
+            "abstract`); use a picture of line art on plain paper."))
     widest = 2.0 * float(np.percentile(depth[mask], 95))
     if widest > band and (found_light or widest > BRUSH_SHARE * max(mask.shape)
                           or not _brush_ink(mask, depth)):
@@ -631,7 +631,7 @@ def _check_line_art(source: str, ink: np.ndarray, mask: np.ndarray, depth: np.nd
         raise InputError((not found_light and _beside_the_page(
             source, found, depth > band / 2, band)) or (
             f"{source}: {found} on a page this size, so this is not a line drawing; use a "
-            "picture of line art (a photo is drawn by the 'abstract' kind)."))
+            "picture of line art (a photo is drawn by `inkmotion run abstract`)."))
 
 
 def _brush_ink(mask: np.ndarray, depth: np.ndarray) -> bool:
