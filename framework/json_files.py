@@ -26,7 +26,6 @@ def read_json(path: str | Path, error: type[InkmotionError], what: str = "file")
         raise error(f"{path}: is not valid JSON ({exc}).") from exc
 
 
-
 def json_ready(value: Any, default: Callable[[Any], Any] | None = None) -> Any:
     """``value`` as plain JSON data: NumPy/torch scalars and arrays via ``item``/``tolist``,
     and NaN or infinities as None (JSON has no NaN: strict readers and PostgreSQL's

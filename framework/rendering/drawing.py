@@ -27,6 +27,16 @@ def render_plans(renderer: Renderer, plans: Sequence[MotorPlan], canvas: tuple[i
     """Coverage (H, W) of ``plans`` on a ``canvas`` (width, height) px of the output, the
     strokes and their widths scaled by ``scale`` from the plans' canvas (a 3-D plan's
     radius is a coordinate and scales with it), in ``dtype`` (None: the plans')."""
+    segments, widths = plan_segments(plans, scale, dtype)
+    with torch.no_grad():
+        return renderer(segments, widths, int(canvas[1]), int(canvas[0]))
+
+
+def plan_segments(plans: Sequence[MotorPlan], scale: float = 1.0,
+                  dtype: torch.dtype | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """The Bézier segments (S, 4, D) of every plan, detached, scaled by ``scale`` (a 3-D
+    plan's radius with them) in ``dtype`` (None: the plans'), and each segment's pen width
+    (S,) scaled the same: what a renderer draws (:func:`render_plans`)."""
     from inkmotion.geometry.bezier import bezier_segments
 
     with torch.no_grad():
@@ -38,7 +48,7 @@ def render_plans(renderer: Renderer, plans: Sequence[MotorPlan], canvas: tuple[i
         widths = torch.cat([torch.full((s.shape[0],), plan.width * scale, dtype=s.dtype,
                                        device=s.device)
                             for s, plan in zip(segments, plans, strict=True)])
-        return renderer(torch.cat(segments), widths, int(canvas[1]), int(canvas[0]))
+        return torch.cat(segments), widths
 
 
 def polyline_segments(strokes: Sequence[np.ndarray], dtype: torch.dtype,

@@ -47,17 +47,15 @@ def raster_image(drawing: object, renderer: Renderer, size: int,
     ``size`` px, in batches of segments of at most :data:`BATCH_PIXELS` evaluations."""
     import torch
 
-    from inkmotion.geometry.bezier import bezier_segments
+    from inkmotion.rendering.drawing import plan_segments
     from inkmotion.rendering.raster import PIECE_LENGTH, piece_counts
 
     canvas = drawing.canvas  # type: ignore[attr-defined]
     scale = size / max(float(canvas[0]), float(canvas[1]))
     width, height = max(1, round(canvas[0] * scale)), max(1, round(canvas[1] * scale))
+    segments, widths = plan_segments(drawing.plans, scale,  # type: ignore[attr-defined]
+                                     torch.float32)
     with torch.no_grad():
-        plans = drawing.plans  # type: ignore[attr-defined]
-        segments = torch.cat([bezier_segments(p).detach().float() * scale for p in plans])
-        widths = torch.cat([torch.full((len(bezier_segments(p)),), p.width * scale)
-                            for p in plans])
         reach = (segments[..., 2].amax(1) if segments.shape[-1] == 3 else widths / 2) + 2
         cost = piece_counts(segments, reach, height, width) * (PIECE_LENGTH + 2 * reach) ** 2
         batch = torch.cumsum(cost, 0) // BATCH_PIXELS  # (S,) each segment's batch

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -145,7 +146,7 @@ OTHER_FILES = (("a job.json", {"spec", "versions"}), ("a report.json", {"wall_s"
 #: what each value of a sub-movement must be for the model to mean a movement: (field,
 #: test, what it is); the onsets advance by Δt·T (Δt ≥ 0), σ = √(−ln(1 − Ac)) needs
 #: 0 < Ac < 1, and an arc turns at most a full turn
-RANGES: tuple[tuple[str, object, str], ...] = (
+RANGES: tuple[tuple[str, Callable[[torch.Tensor], torch.Tensor], str], ...] = (
     ("T", lambda v: v > 0, "a duration, positive"),
     ("ac", lambda v: (v > 0) & (v < 1), "the lognormal's shape Ac, between 0 and 1"),
     ("delta_t", lambda v: v >= 0, "an overlap Δt, 0 or more (onsets never go back)"),
@@ -175,7 +176,7 @@ def _check_ranges(plan: MotorPlan, where: str) -> None:
     a movement's (:data:`RANGES`), a width below 0 or a negative radius."""
     for name, test, meaning in RANGES:
         values = getattr(plan, name)
-        bad = ~test(values)  # type: ignore[operator]
+        bad = ~test(values)
         if bool(bad.any()):
             k = int(bad.nonzero()[0, 0])
             raise InputError(f"{where}.{name}[{k}] is {float(values[k]):g}, but it is "
