@@ -285,3 +285,124 @@ def test_the_protocols_import_no_torch_and_the_objective_no_plugin_manager() -> 
         out = subprocess.run([sys.executable, "-c", code.format(module=module)],
                              capture_output=True, text=True, check=True)
         assert out.stdout.strip() == expected, (module, out.stdout)
+
+
+# -- what a plugin declares must work on every command line ---------------------------------
+
+def _losses_module(*losses: object) -> object:
+    class Module:
+        @hookimpl
+        def inkmotion_image_losses(self):
+            return list(losses)
+
+    return Module()
+
+
+def _loss(name: str, options: object = None, prepare: object = None) -> object:
+    members = {"name": name, "description": f"The {name} loss."}
+    if options is not None:
+        members["Options"] = options
+    members["prepare"] = prepare or (lambda self, reference, **options: None)
+    return type(f"{name.title()}Loss", (), members)()
+
+
+def test_an_option_flag_someone_else_has_is_refused_and_the_command_keeps_working() -> None:
+    """A loss 'max' with an option 'error' would bring --max-error, run fit's own flag (it
+    took `run fit` down with a duplicate-parameter traceback); a loss 'line' with an option
+    'extent' would take the 'line' initialiser's --line-extent. Each is refused when it
+    registers, naming the flag and its owner; the built-ins are untouched."""
+    from inkmotion.jobs.params import param
+
+    @dataclass
+    class ErrorOptions:
+        error: float = param(1.0, "Weight.")
+
+    @dataclass
+    class ExtentOptions:
+        extent: float = param(9.0, "Extent.")
+
+    h = PluginHost()
+    h.load_entry_points()
+    with pytest.raises(PluginError, match=r"the image-loss plugin 'max' .* would take the flag "
+                                          r"--max-error, which the job kind 'fit' from "
+                                          r"inkmotion \(inkmotion.plugins.fit\) already has"):
+        h.register(_losses_module(_loss("max", ErrorOptions)), name="maxloss", origin="other")
+    with pytest.raises(PluginError, match=r"--line-extent, which the initialiser plugin 'line' "
+                                          r"from inkmotion"):
+        h.register(_losses_module(_loss("line", ExtentOptions)), name="losses", origin="other")
+    assert "max" not in h.plugins("image-loss") and "line" not in h.plugins("image-loss")
+    h.register(_losses_module(_loss("wide", ErrorOptions)), name="wideloss", origin="other")
+    assert "wide" in h.plugins("image-loss")  # --wide-error is nobody else's
+
+
+@pytest.mark.parametrize("options, why", [
+    (type("Plain", (), {"blur": 2.0}), r"Options must be a dataclass \(add @dataclass above "
+                                        r"class Plain\)"),
+    (dataclass(type("Bare", (), {"__annotations__": {"strength": float}})),
+     r"Options field\(s\) strength have no default"),
+])
+def test_options_that_a_command_line_cannot_fill_are_refused(options, why) -> None:
+    """Options that are no dataclass, or with a field that has no default, crashed `run fit
+    --help` (or the job, with a TypeError) for everyone; now the plugin is refused."""
+    with pytest.raises(PluginError, match=why):
+        PluginHost().register(_losses_module(_loss("odd", options)), name="odd")
+
+
+def test_a_method_that_cannot_take_what_inkmotion_passes_is_refused() -> None:
+    """An initialiser whose __call__ takes no width/dtype/device keywords failed mid-job
+    with "unexpected keyword argument 'width'"; a method that takes its options by name
+    (every field of its Options is passed) is fine."""
+    from inkmotion.jobs.params import param
+
+    class NoKeywords:
+        name, description = "nokw", "Takes the inputs only."
+
+        def __call__(self, inputs):
+            return []
+
+    assert "__call__(inputs) cannot take what inkmotion passes it" in check_plugin_object(
+        "initialiser", NoKeywords())
+    assert "declare it as __call__(self, inputs, *, width, dtype, device, **options)" in \
+        check_plugin_object("initialiser", NoKeywords())
+
+    @dataclass
+    class Strength:
+        strength: float = param(1.0, "How strong.")
+
+    named = _loss("named", Strength, prepare=lambda self, reference, strength: None)
+    assert check_plugin_object("image-loss", named) is None
+    assert "prepare(reference, strength)" in check_plugin_object(
+        "image-loss", _loss("unnamed", prepare=lambda self, reference, strength: None))
+
+
+def test_a_hook_that_returns_one_object_not_a_list_is_refused_saying_so() -> None:
+    class Module:
+        @hookimpl
+        def inkmotion_image_losses(self):
+            return _loss("single")
+
+    with pytest.raises(PluginError, match=r"inkmotion_image_losses\(\) returned SingleLoss; "
+                                          r"return a list of plugin objects"):
+        PluginHost().register(Module(), name="single")
+
+
+def test_the_built_ins_load_first_whatever_another_packages_entry_point_is_called(
+        tmp_path, monkeypatch) -> None:
+    """A third-party 'raster' renderer under the entry point 'aaa' (which sorts before
+    the built-in's) used to register first and push the built-in out as the broken one;
+    the built-ins load first, so the clash is the other package's."""
+    _renderer_module(tmp_path / "tp_early.py", "raster", "A renderer that takes a built-in's "
+                     "name.", "torch.ones(height, width)")
+    info = tmp_path / "early_plugins-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: early-plugins\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[inkmotion]\naaa = tp_early\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    h = PluginHost()
+    with pytest.warns(UserWarning, match="Two renderer plugins are named 'raster': one from "
+                                         r"inkmotion \(inkmotion.plugins.raster\), one from "
+                                         r"early-plugins"):
+        h.load_entry_points()
+    assert h.get("renderer", "raster")._inkmotion_origin.startswith("inkmotion (")
+    assert [b.name for b in h.broken] == ["aaa"]
+    sys.modules.pop("tp_early", None)

@@ -302,13 +302,14 @@ class KindGroup(typer.core.TyperGroup):
 
     def get_command(self, ctx: Any, name: str) -> Any:
         from inkmotion.cli.errors import fail
-        from inkmotion.plugin_host import host
+        from inkmotion.errors import InkmotionError
+        from inkmotion.jobs.kind import job_kind
 
-        kinds = host().plugins("job-kind")
-        if name not in kinds:
-            fail(f"Unknown job kind {name!r}; kinds are: {', '.join(sorted(kinds)) or 'none'} "
-                 "(`inkmotion plugins` lists them).")
-        return self.make(kinds[name])
+        try:
+            kind = job_kind(name)
+        except InkmotionError as exc:  # unknown, or a plugin that failed to load: why
+            fail(exc)
+        return self.make(kind)
 
     def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
         config = config_of(args)

@@ -13,8 +13,10 @@ Errors are reported by :mod:`inkmotion.cli.errors`.
 from __future__ import annotations
 
 import json
+import os
 import signal
 import sys
+import warnings
 from typing import Annotated, Optional
 
 import typer
@@ -158,6 +160,7 @@ def main() -> None:
     from inkmotion.cli.help_text import plain_flags, reflow_tree
 
     plain_flags()
+    warnings.formatwarning = _warning_line
     signal.signal(signal.SIGTERM, _terminated)
     try:
         code = reflow_tree(typer.main.get_command(app)).main(standalone_mode=False)
@@ -169,7 +172,28 @@ def main() -> None:
     except Abort:  # Ctrl-C outside a job (a job says what it kept itself)
         report("interrupted.")
         sys.exit(130)
+    except Exception as exc:  # a third-party plugin's bug is named; inkmotion's own shows
+        from inkmotion.plugin_host.manager import TRACEBACK_ENV, plugin_at_fault
+
+        blame = plugin_at_fault(exc)
+        if blame is None or os.environ.get(TRACEBACK_ENV) == "1":
+            raise
+        report(blame)
+        sys.exit(EXIT_USER)
     sys.exit(code if isinstance(code, int) else 0)
+
+
+def _warning_line(message: Warning | str, category: type[Warning], filename: str,
+                  lineno: int, line: str | None = None) -> str:
+    """A user warning as the command line says everything else, ``warning: …`` on one
+    line (not Python's file, line number and source line); other warnings (a library's
+    deprecation, for a developer) as Python writes them."""
+    if issubclass(category, UserWarning):
+        return f"warning: {message}\n"
+    return _python_warning_line(message, category, filename, lineno, line)
+
+
+_python_warning_line = warnings.formatwarning
 
 
 def _terminated(signum: int, frame: object) -> None:

@@ -5,17 +5,18 @@ check or correct before fitting."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
 from rich.console import Console
 
 from inkmotion.cli.errors import fail
-from inkmotion.errors import InkmotionError
+from inkmotion.errors import InkmotionError, SpecError
 from inkmotion.images.formats import PICTURE_FORMATS
 
 
 def trace_cmd(
+    ctx: typer.Context,
     image: Annotated[str, typer.Argument(help=f"A picture of a line drawing ({PICTURE_FORMATS}; "
                                               "HEIC with pillow-heif) or sample:NAME.")],
     out: Annotated[Optional[Path], typer.Option(  # noqa: UP045
@@ -29,7 +30,8 @@ def trace_cmd(
     """Trace a picture's strokes (order, direction, width) without fitting.
 
     strokes.png shows each stroke numbered in drawing order, with an arrow where it ends;
-    fix strokes.svg or strokes.gml by hand if a stroke is wrong, and fit that file.
+    fix strokes.svg or strokes.gml by hand if a stroke is wrong, and fit that file. A
+    tracer plugin's own options follow as in `inkmotion run fit` (--TRACER-OPTION VALUE).
 
     Examples:
 
@@ -48,8 +50,10 @@ def trace_cmd(
 
     try:
         refuse_to_overwrite(out, force, inputs=[image])
-        traces, picture = trace_input(image, plugin("tracer", tracer), invert=invert,
-                                      varying_width=True)
+        chosen = plugin("tracer", tracer)
+        options = tracer_options(chosen, ctx.args)
+        traces, picture = trace_input(image, chosen, invert=invert, varying_width=True,
+                                      **options)
         with StagingDir(out) as stage:
             assert stage.path is not None
             names = write_trace(traces, picture.grey, stage.path, picture.page)
@@ -65,6 +69,43 @@ def trace_cmd(
         highlight=False)
 
 
+def tracer_options(tracer: Any, args: list[str]) -> dict[str, Any]:
+    """The keyword arguments ``--NAME-OPTION VALUE`` (``--[no-]NAME-OPTION`` for a switch)
+    in ``args`` give ``tracer`` (named NAME), checked against its ``Options`` as a fit's
+    are; anything else in ``args`` is refused in one sentence."""
+    from inkmotion.jobs.params import PluginChoice, describe, options_dict, plugin_options
+
+    cls = getattr(tracer, "Options", None)
+    infos = {f"--{tracer.name}-{i.name.replace('_', '-')}": i
+             for i in (describe(cls) if cls is not None else [])}
+    raw: dict[str, Any] = {}
+    words = list(args)
+    while words:
+        word = words.pop(0)
+        flag, _, given = word.partition("=")
+        switch_off = flag.startswith("--no-") and "--" + flag[5:] in infos
+        info = infos.get("--" + flag[5:] if switch_off else flag)
+        if info is None:
+            known = ", ".join(infos) or "none"
+            raise SpecError(f"trace takes no option {flag}; the {tracer.name} tracer's "
+                            f"options are: {known} (`inkmotion trace --help`).")
+        if info.type is bool:
+            raw[info.name] = not switch_off
+            continue
+        if not given:
+            if not words:
+                raise SpecError(f"{flag} needs a value.")
+            given = words.pop(0)
+        try:
+            raw[info.name] = info.type(given) if info.type in (int, float) else given
+        except ValueError:
+            raise SpecError(f"{flag}: {given!r} is not a number.") from None
+    choice = PluginChoice("tracer", tracer.name, raw)
+    return options_dict(plugin_options(tracer, choice, "inkmotion trace"))
+
+
 def register(app: typer.Typer) -> None:
-    """Add ``trace`` to the ``inkmotion`` app."""
-    app.command("trace")(trace_cmd)
+    """Add ``trace`` to the ``inkmotion`` app (a tracer's options ride in its extra
+    arguments, as ``--NAME-OPTION``: :func:`tracer_options`)."""
+    app.command("trace", context_settings={"allow_extra_args": True,
+                                           "ignore_unknown_options": True})(trace_cmd)

@@ -169,9 +169,22 @@ def _terms(ev: Evaluation) -> dict[str, torch.Tensor]:
     return out
 
 
-def _not_finite() -> InkmotionError:
-    return InkmotionError("The optimisation produced a non-finite loss (NaN); lower the learning "
-                          "rates or check the input for extreme coordinates.")
+def _not_finite(ev: Evaluation | None = None) -> InkmotionError:
+    """The error of a non-finite loss, naming the terms of ``ev`` (the evaluation at hand,
+    read from the device: the fit is ending anyway) that are not finite: some of them
+    (a loss term's own fault), or all (the plan's parameters themselves)."""
+    bad = [] if ev is None else [k for k, v in ev.terms.items()
+                                 if not bool(torch.isfinite(v.detach()).all())]
+    if ev is not None and bad and len(bad) < len(ev.terms):
+        return InkmotionError(f"The optimisation produced a non-finite loss (NaN) in its "
+                              f"{', '.join(bad)} term(s) alone; an image loss named there "
+                              f"is at fault (check that plugin, or choose another with "
+                              f"--loss).")
+    why = (" (every term went non-finite: an infinite gradient, from a loss term whose "
+           "gradient is unbounded, or learning rates too high, sent the plan's parameters "
+           "to NaN)" if bad else "")
+    return InkmotionError(f"The optimisation produced a non-finite loss (NaN){why}; lower the "
+                          f"learning rates or check the input for extreme coordinates.")
 
 
 class _StepStates:
@@ -292,7 +305,7 @@ def optimise(
         first = objective(batch)
     initial_terms = scalars(_terms(first))
     if not math.isfinite(initial_terms["total"]):
-        raise _not_finite()
+        raise _not_finite(first)
     initial_t_end = first.t_end.tolist()
     if resume is not None and "initial_terms" in resume:  # the terms before step 1
         initial_terms, initial_t_end = resume["initial_terms"], resume["initial_t_end"]
@@ -312,7 +325,7 @@ def optimise(
             fit.clamp(settings)
             finite = finite & torch.isfinite(ev.total.detach())
         if step % settings.check_every == 0 and not bool(finite):
-            raise _not_finite()
+            raise _not_finite(ev)
         if on_step is not None:
             on_step(states(step, ev, batch))
         if checkpoint is not None and checkpoint.due(step):  # type: ignore[attr-defined]
@@ -324,7 +337,7 @@ def optimise(
         last = objective(fit.assemble())
     final_terms = scalars(_terms(last))
     if not bool(finite) or not math.isfinite(final_terms["total"]):
-        raise _not_finite()
+        raise _not_finite(last)
     return FitResult(
         plans=fit.plans(),
         initial_terms=initial_terms,

@@ -93,9 +93,8 @@ def job_kind(name: str) -> Any:
 
     kinds = host().plugins("job-kind")
     if name not in kinds:
-        broken = [b for b in host().broken if b.name == name]
-        if broken:
-            return host().get("job-kind", name)  # says why it failed to load
+        if host().broken or host().disabled:  # it may be among them: say which and why
+            return host().get("job-kind", name)
         raise SpecError(f"Unknown job kind {name!r}; kinds are: {', '.join(sorted(kinds))} "
                         "(`inkmotion plugins` lists them with their packages).")
     return kinds[name]

@@ -31,6 +31,38 @@ from inkmotion.jobs.spec import JobSpec
 from inkmotion.json_files import dumps
 
 
+def _report_of(kind: Any, job: Job) -> dict:
+    """The kind's ``run(job)``, held to the JobKind protocol: its report, a dict."""
+    report = kind.run(job)
+    if not isinstance(report, dict):
+        from inkmotion.errors import PluginError
+
+        raise PluginError(f"The job kind {kind.name!r} returned {type(report).__name__} from "
+                          f"run(job); it must return its report, a dict (e.g. {{}}).")
+    return report
+
+
+class _RendererWithOptions:
+    """A renderer plugin whose calls (and whose ``session``'s) get ``options`` as keyword
+    arguments; its other members (``name``, ``renders_canvases``, ...) are the plugin's."""
+
+    def __init__(self, renderer: Any, options: dict[str, Any]) -> None:
+        self._renderer, self._options = renderer, options
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self._renderer(*args, **self._options, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._renderer, name)
+        if name != "session":
+            return value
+
+        def session(*args: Any, **kwargs: Any) -> Any:
+            return value(*args, **self._options, **kwargs)
+
+        return session
+
+
 class ObserverGroup:
     """Several observers seen as one (each method optional on each observer)."""
 
@@ -93,6 +125,14 @@ class Job:
     def options(self, choice: PluginChoice) -> dict[str, Any]:
         """That plugin's options from the spec, as keyword arguments."""
         return options_dict(self.resolved.options_of(choice))
+
+    def renderer(self, choice: PluginChoice) -> Any:
+        """The renderer plugin a parameter chose, its options from the spec bound to its
+        calls (and to its per-fit ``session``, when it has one): the engines call a
+        renderer with the segments alone (the Renderer protocol)."""
+        renderer = self.plugin(choice)
+        options = self.options(choice)
+        return renderer if not options else _RendererWithOptions(renderer, options)
 
     def recording_stream(self) -> Any:
         """The job's open rerun RecordingStream when it is recorded, else None."""
@@ -167,7 +207,7 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
         try:
             job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
                       checkpoints=checkpoints)
-            report = _finished(job, dict(resolved.kind.run(job)), threads)
+            report = _finished(job, _report_of(resolved.kind, job), threads)
             record_job(staging.path, resolved.full_spec(), report)
             group.on_end(report)
         finally:

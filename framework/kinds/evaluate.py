@@ -88,27 +88,34 @@ def run_evaluate(job: Job) -> dict[str, Any]:
 
 
 def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,
+                               reader: str | None = None,
+                               reader_options: dict[str, Any] | None = None,
                                **options: Any) -> dict[str, Any]:
-    """The recording read by the reader plugins, then its agreement with ``drawing``
+    """The recording read by the reader plugins (the one named ``reader``, with
+    ``reader_options``, when given), then its agreement with ``drawing``
     (:func:`inkmotion.evaluation.human.human_agreement_of_traces`, which plots to ``png``)."""
     from inkmotion.evaluation.human import human_agreement_of_traces
     from inkmotion.kinds.read import read_input
 
-    return human_agreement_of_traces(read_input(recording), drawing, png, recording,
-                                     **options)
+    return human_agreement_of_traces(read_input(recording, reader, reader_options), drawing,
+                                     png, recording, **options)
 
 
-def recorded_agreement(source: str, drawing: Any, png: Path) -> dict[str, Any] | None:
+def recorded_agreement(source: str, drawing: Any, png: Path, reader: str | None = None,
+                       reader_options: dict[str, Any] | None = None
+                       ) -> dict[str, Any] | None:
     """Recorded duration and peaks, fit peaks matched to them and their mean offset along
     the trace, when ``source`` is a file whose points carry time stamps (else None); the
-    plot of both speed profiles goes to ``png`` (the fit's report and the benchmark)."""
+    plot of both speed profiles goes to ``png`` (the fit's report and the benchmark).
+    ``reader``, ``reader_options``: the reader the fit read ``source`` with, if it named
+    one."""
     from inkmotion.inputs.sources import is_scheme
     from inkmotion.samples import locate
 
     path = locate(source)  # a sample:NAME is its shipped file
     if is_scheme(path) or not Path(path).is_file():
         return None
-    result = human_agreement_from_files(source, drawing, png)
+    result = human_agreement_from_files(source, drawing, png, reader, reader_options)
     if not result.get("has_times"):
         return None
     return dict(result["total"])

@@ -201,7 +201,7 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
 
     from inkmotion.fitting.objective import Objective
     from inkmotion.fitting.quality import REFERENCE_SIZE
-    from inkmotion.kinds.optimisation import image_losses, staged_problem
+    from inkmotion.kinds.optimisation import image_losses, initial_plans, staged_problem
     from inkmotion.plugin_host.protocols import JobInputs, Reference
     from inkmotion.rendering.drawing import render_polylines
 
@@ -212,11 +212,10 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
     canvas = (int(traces.width), int(traces.height))
     width = _pen_width(traces, p)
     _check_pen(traces, width, source)
-    renderer = job.plugin(p.renderer)
-    initialise = job.plugin(p.initialiser)
-    options = dict(width=width, dtype=dtype, device=job.device, **job.options(p.initialiser))
-    plans = initialise(JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
-                       **options)
+    renderer = job.renderer(p.renderer)
+    plans = initial_plans(job, p.initialiser,
+                          JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
+                          width=width, dtype=dtype, device=job.device)
     asked = _targets_note(p, plans)
     tolerance = p.tolerance * max(canvas) / REFERENCE_SIZE  # canvas px
     if traces.picture is not None:  # the picture itself is what the fit is judged against
@@ -265,7 +264,9 @@ def _read(job: Job, source: str) -> Any:
         traces, _ = trace_input(source, job.plugin(p.tracer), invert=p.invert,
                                 varying_width=p.varying_width, **job.options(p.tracer))
         return traces
-    return read_input(source, reader=p.reader.name if p.reader else None)
+    if p.reader is None:
+        return read_input(source)
+    return read_input(source, reader=p.reader.name, options=job.options(p.reader))
 
 
 #: learning rate of a 2.5D plan's radius, px (the generation kinds' default)
@@ -506,5 +507,8 @@ def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:
     human_speeds.png); None otherwise."""
     from inkmotion.kinds.evaluate import recorded_agreement
 
+    p: FitParams = job.params
     return recorded_agreement(job.spec.inputs["drawing"], drawing,
-                              job.folder / "human_speeds.png")
+                              job.folder / "human_speeds.png",
+                              p.reader.name if p.reader else None,
+                              job.options(p.reader) if p.reader else None)

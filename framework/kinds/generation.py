@@ -26,7 +26,7 @@ from inkmotion.clip.weights import DEFAULT_MODEL as DEFAULT_CLIP_MODEL
 from inkmotion.clip.weights import DEFAULT_PRETRAINED as DEFAULT_CLIP_PRETRAINED
 from inkmotion.errors import InputError, SpecError
 from inkmotion.jobs.params import PluginChoice, param, plugin_param, redefault
-from inkmotion.kinds.optimisation import OptimisationParams
+from inkmotion.kinds.optimisation import OptimisationParams, initial_plans
 
 if TYPE_CHECKING:
     import torch
@@ -179,9 +179,9 @@ def run_tag(job: Job) -> dict[str, Any]:
     clip = load_job_clip(p, job.device)  # the weights' files checked, then the model built
     caption = p.caption.replace("{word}", word)
     canvas = (p.size, p.size)
-    plans = job.plugin(p.initialiser)(
-        JobInputs(canvas, caption=caption, targets=p.targets), width=p.width,
-        dtype=torch.float32, device=job.device, **job.options(p.initialiser))
+    plans = initial_plans(job, p.initialiser, JobInputs(canvas, caption=caption,
+                                                        targets=p.targets),
+                          width=p.width, dtype=torch.float32, device=job.device)
     reference = Reference(caption=caption, extra={"clip": clip})
     job.start(canvas)
     staged, init = optimise_generation(job, plans, reference, canvas)
@@ -209,9 +209,10 @@ def run_abstract(job: Job) -> dict[str, Any]:
         raise InputError(f"The saliency plugin {p.saliency.name!r} returned a map of shape "
                          f"{tuple(saliency.shape)} with non-finite values or the wrong size; "
                          "try --saliency spectral.")
-    plans = job.plugin(p.initialiser)(
+    plans = initial_plans(
+        job, p.initialiser,
         JobInputs(canvas, image=photo, saliency=saliency, caption=caption, targets=p.targets),
-        width=p.width, dtype=torch.float32, device=job.device, **job.options(p.initialiser))
+        width=p.width, dtype=torch.float32, device=job.device)
     if len(plans) != 1:
         raise SpecError(f"The initialiser {p.initialiser.name!r} made {len(plans)} paths; an "
                         "abstraction is one path (use voronoi-tsp).")
@@ -234,7 +235,7 @@ def optimise_generation(job: Job, plans: list[MotorPlan], reference: Reference,
     p = job.params
     if p.varying_width:
         plans = [plan.with_radius(p.width / 2) for plan in plans]
-    objective = Objective(job.plugin(p.renderer), image_losses(job, reference), canvas,
+    objective = Objective(job.renderer(p.renderer), image_losses(job, reference), canvas,
                           p.weights())
     settings = p.optimiser_settings(lr_radius=p.lr_radius,
                                     radius_range=(p.radius_min, p.radius_max))
@@ -277,7 +278,7 @@ def write_generation(job: Job, staged: StagedFit, init: list[MotorPlan],
     init = [on_cpu(plan) for plan in init]
     size = (float(canvas[0]), float(canvas[1]))
     rendered = staged.result.rendered.detach().cpu()
-    init_rendered = render_plans(job.plugin(p.renderer), init, canvas)
+    init_rendered = render_plans(job.renderer(p.renderer), init, canvas)
     report = plan_report(job, staged, plans, canvas)
     report.update(write_plan_artifacts(job, plans, rendered, canvas))
     Drawing(size, init).save(folder / "init.json")

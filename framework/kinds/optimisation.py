@@ -25,10 +25,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from inkmotion.errors import PluginError
 from inkmotion.jobs.params import PluginChoice, param, plugin_param
 
 if TYPE_CHECKING:
     import numpy as np
+    import torch
 
     from inkmotion.fitting.objective import Objective, Weights
     from inkmotion.fitting.optimise import OptimiserSettings
@@ -92,9 +94,73 @@ class OptimisationParams:
 
 
 def image_losses(job: Job, reference: Reference) -> dict[str, Any]:
-    """The job's image-loss plugins bound to ``reference``, by name (``params.losses``)."""
-    return {c.name: job.plugin(c).prepare(reference, **job.options(c))
-            for c in job.params.losses}
+    """The job's image-loss plugins bound to ``reference``, by name (``params.losses``),
+    another package's held to its contract (:class:`CheckedLoss`)."""
+    from inkmotion.plugin_host.manager import is_built_in
+
+    out = {}
+    for c in job.params.losses:
+        plugin = job.plugin(c)
+        bound = plugin.prepare(reference, **job.options(c))
+        if not callable(bound):
+            raise PluginError(f"The image-loss plugin {c.name!r}: prepare() returned "
+                              f"{type(bound).__name__}, not the loss function; return a "
+                              f"callable loss(rendered) -> 0-d tensor.")
+        out[c.name] = bound if is_built_in(plugin) else CheckedLoss(c.name, bound)
+    return out
+
+
+def initial_plans(job: Job, choice: PluginChoice, inputs: Any, **options: Any
+                  ) -> list[MotorPlan]:
+    """The first motor plans from the initialiser plugin ``choice`` (called with
+    ``inputs`` and ``options`` besides its own options); another package's result is held
+    to the Initialiser protocol: a non-empty list of motor plans with finite targets."""
+    from inkmotion.plugin_host.manager import is_built_in
+    from inkmotion.sigma_lognormal.plan import MotorPlan
+
+    initialiser = job.plugin(choice)
+    plans = initialiser(inputs, **options, **job.options(choice))
+    if is_built_in(initialiser):
+        return plans
+    said = f"The initialiser plugin {choice.name!r} returned"
+    if not isinstance(plans, list) or not all(isinstance(p, MotorPlan) for p in plans):
+        raise PluginError(f"{said} {type(plans).__name__}; it must return a list of "
+                          f"MotorPlan, one per stroke.")
+    if not plans:
+        raise PluginError(f"{said} no plan; it must return at least one MotorPlan.")
+    if not all(bool(p.points.isfinite().all()) for p in plans):
+        raise PluginError(f"{said} targets that are not finite (NaN or inf); check its "
+                          f"arithmetic.")
+    return plans
+
+
+class CheckedLoss:
+    """An image-loss plugin's bound loss whose every value is checked for what the fit
+    needs (the BoundLoss protocol): a 0-d tensor, carrying a gradient whenever the
+    rendering does. Shapes and flags only: no device read."""
+
+    def __init__(self, name: str, loss: Any) -> None:
+        self.name, self.loss = name, loss
+
+    def __getattr__(self, name: str) -> Any:  # the loss's own members (e.g. ``stack``)
+        return getattr(self.loss, name)
+
+    def __call__(self, rendered: torch.Tensor) -> torch.Tensor:
+        import torch
+
+        value = self.loss(rendered)
+        if not isinstance(value, torch.Tensor) or value.dim() != 0:
+            got = (f"a tensor of shape {tuple(value.shape)}" if isinstance(value, torch.Tensor)
+                   else type(value).__name__)
+            raise PluginError(f"The image-loss plugin {self.name!r} returned {got}; its loss "
+                              f"must return a 0-d tensor (e.g. .mean() or .sum() of the "
+                              f"per-pixel values).")
+        if rendered.requires_grad and not value.requires_grad:
+            raise PluginError(f"The image-loss plugin {self.name!r} returned a value with no "
+                              f"gradient (detached, or computed outside torch), so the fit "
+                              f"cannot learn from it; compute it from the rendering with torch "
+                              f"operations.")
+        return value
 
 
 def staged_problem(job: Job, plans: list[MotorPlan], objective: Objective,

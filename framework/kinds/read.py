@@ -11,16 +11,18 @@ import time
 from pathlib import Path
 from typing import Any
 
-from inkmotion.errors import InputError
+from inkmotion.errors import InputError, PluginError
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.sources import is_scheme
 from inkmotion.plugin_host import host
 from inkmotion.samples import locate
 
 
-def read_input(source: str, reader: str | None = None) -> Traces:
+def read_input(source: str, reader: str | None = None,
+               options: dict[str, Any] | None = None) -> Traces:
     """Parse ``source`` (a file path, ``sample:NAME`` or ``scheme:value``) with the first
-    reader that accepts it, or with the reader plugin named ``reader``.
+    reader that accepts it, or with the reader plugin named ``reader`` (its ``options``
+    as keyword arguments of its ``read``).
 
     A ``sample:NAME`` source becomes its shipped file (an unknown name is refused with the
     list of samples). A path that does not exist (and is no ``scheme:value`` string) is
@@ -32,11 +34,11 @@ def read_input(source: str, reader: str | None = None) -> Traces:
     if not is_scheme(source) and not Path(source).exists():
         raise InputError(f"{source}: no such file; check the path.")
     if reader is not None:
-        return host().get("reader", reader).read(source)
+        return _traces_of(host().get("reader", reader), source, options or {})
     readers = host().plugins("reader")
     name = _first_reader(readers, source)
     if name is not None:
-        return readers[name].read(source)
+        return _traces_of(readers[name], source, {})
     forms = "; ".join(
         f"{name} ({readers[name].description.rstrip('.')})" for name in sorted(readers)
     )
@@ -45,10 +47,34 @@ def read_input(source: str, reader: str | None = None) -> Traces:
     )
 
 
+def _traces_of(reader: Any, source: str, options: dict[str, Any]) -> Traces:
+    """``reader.read(source, **options)``, held to the Reader protocol: Traces."""
+    traces = reader.read(source, **options)
+    if not isinstance(traces, Traces):
+        raise PluginError(f"The reader plugin {reader.name!r} returned "
+                          f"{type(traces).__name__} for {source}; read() must return "
+                          f"inkmotion.geometry.traces.Traces.")
+    return traces
+
+
 def _first_reader(readers: dict[str, Any], source: str) -> str | None:
     """The name of the first reader, in name order, that accepts ``source``; None if
-    none does."""
-    return next((name for name in sorted(readers) if readers[name].can_read(source)), None)
+    none does. A reader whose ``can_read`` raises (a plugin's bug, e.g. opening a
+    ``text:`` source as a file) is taken as declining, with a warning naming it: one
+    broken reader must not stop the others from reading what they can."""
+    import warnings
+
+    for name in sorted(readers):
+        try:
+            if readers[name].can_read(source):
+                return name
+        except Exception as exc:
+            origin = getattr(readers[name], "_inkmotion_origin", "?")
+            warnings.warn(f"the reader plugin {name!r} from {origin} failed to answer whether "
+                          f"it reads {source} ({type(exc).__name__}: {exc}); it was skipped; "
+                          f"its can_read must return False for what it cannot read.",
+                          stacklevel=2)
+    return None
 
 
 def trace_input(source: str, tracer: Any, *, invert: bool = False,

@@ -3,10 +3,13 @@
 Built-ins are registered exactly like third-party plugins (through entry points), so
 nothing in the core knows a built-in by name except as a default. Registration is checked
 in full before anything is kept (pluggy's ``check_pending`` for misspelt hooks, the
-objects each hook returns against their kind's protocol, names unique per kind): a plugin
+objects each hook returns against their kind's protocol, names unique per kind, command-line
+flags unique: a plugin option's ``--PLUGIN-OPTION`` is nobody else's flag): a plugin
 that fails any check is unregistered again, recorded as broken with the reason, and
 ``inkmotion plugins`` reports it; one bad third-party plugin never takes the command line
-down. Loading the built-ins imports no torch (their heavy parts load on first use).
+down. The built-ins load first, so a clash of names or flags is always the third-party
+plugin's, refused, whatever its entry point is called. Loading the built-ins imports no
+torch (their heavy parts load on first use).
 
 A user switches plugins off by entry-point name (the module names ``inkmotion plugins``
 shows in its origin column, e.g. ``raster`` for ``inkmotion.plugins.raster``) in
@@ -30,8 +33,12 @@ from inkmotion.plugin_host.hookspecs import KIND_HOOKS, PROJECT
 from inkmotion.plugin_host.protocols import check_plugin_object
 
 ENTRY_POINT_GROUP = "inkmotion"
+#: the distribution of the built-in plugins (loaded before any other package's)
+BUILT_IN = "inkmotion"
 #: comma-separated entry-point names of plugins not to load (module docstring)
 DISABLE_ENV = "INKMOTION_DISABLE_PLUGINS"
+#: set to 1: a third-party plugin's failure shows its traceback (:func:`plugin_at_fault`)
+TRACEBACK_ENV = "INKMOTION_TRACEBACK"
 
 
 @dataclass(frozen=True)
@@ -56,6 +63,7 @@ class PluginHost:
         self._objects: dict[str, dict[str, Any]] = {kind: {} for kind in KIND_HOOKS}
         self._origins: dict[tuple[str, str], str] = {}  # (kind, name) -> origin
         self.disabled: list[PluginInfo] = []  # blocked by DISABLE_ENV, never imported
+        self._flags: dict[str, str] = {}  # command-line flag -> who declares it
 
     def load_entry_points(self, group: str = ENTRY_POINT_GROUP) -> None:
         """Import and register every module of the entry-point group.
@@ -69,7 +77,8 @@ class PluginHost:
         blocked = {n.strip() for n in os.environ.get(DISABLE_ENV, "").split(",") if n.strip()}
         for name in blocked:
             self.pm.set_blocked(name)
-        found = sorted(entry_points(group=group), key=lambda e: e.name)
+        found = sorted(entry_points(group=group), key=lambda e: (
+            e.dist is None or e.dist.name != BUILT_IN, e.name))
         unknown = sorted(blocked - {ep.name for ep in found})
         if unknown and group == ENTRY_POINT_GROUP:
             warnings.warn(f"{DISABLE_ENV} names {', '.join(map(repr, unknown))}, which no "
@@ -86,9 +95,12 @@ class PluginHost:
                 module = ep.load()
                 self.register(module, name=ep.name, origin=origin)
             except Exception as exc:  # a broken plugin must not take the host down
-                error = f"{type(exc).__name__}: {exc}"
+                error = str(exc) if isinstance(exc, PluginError) else \
+                    f"{type(exc).__name__}: {exc}"
                 self.broken.append(PluginInfo("?", ep.name, origin, "failed to load", error))
-                warnings.warn(f"inkmotion plugin {ep.name!r} from {origin} was skipped: {error}",
+                warnings.warn(f"inkmotion skipped a plugin: {error}"
+                              if isinstance(exc, PluginError) else
+                              f"inkmotion plugin {ep.name!r} from {origin} was skipped: {error}",
                               stacklevel=2)
 
     def register(self, module: Any, name: str | None = None, origin: str = "local") -> None:
@@ -96,8 +108,9 @@ class PluginHost:
 
         pluggy verifies the hooks' arguments; ``check_pending`` rejects hooks with no spec;
         every object a hook returns is checked against its kind's protocol; a name already
-        taken within a kind is refused, naming both origins. On any failure the module is
-        unregistered again and :class:`PluginError` says why.
+        taken within a kind, or a command-line flag already taken (:func:`command_flags`),
+        is refused, naming both. On any failure the module is unregistered again and
+        :class:`PluginError` says why.
         """
         label = name or getattr(module, "__name__", repr(module))
         try:
@@ -105,8 +118,9 @@ class PluginHost:
         except pluggy.PluginValidationError as exc:
             raise PluginError(f"Plugin {label!r} from {origin} has an invalid hook: "
                               f"{_one_line(exc)}") from exc
-        except ValueError as exc:  # registered twice under one name
-            raise PluginError(f"Plugin {label!r} from {origin}: {exc}") from exc
+        except ValueError as exc:  # registered twice under one name (pluggy then lists all)
+            first = str(exc).splitlines()[0].split("=<")[0]
+            raise PluginError(f"Plugin {label!r} from {origin}: {first}.") from exc
         try:
             self.pm.check_pending()
             found = self._collect(module, label, origin)
@@ -121,6 +135,8 @@ class PluginHost:
             obj._inkmotion_origin = origin
             self._objects[kind][obj.name] = obj
             self._origins[(kind, obj.name)] = origin
+            for flag in command_flags(kind, obj):
+                self._flags.setdefault(flag, f"the {_what(kind)} {obj.name!r} from {origin}")
 
     def _collect(self, module: Any, label: str, origin: str) -> list[tuple[str, Any]]:
         """The (kind, object) pairs ``module``'s hooks provide, each checked; raises
@@ -137,6 +153,10 @@ class PluginHost:
                 except Exception as exc:
                     raise PluginError(f"Plugin {label!r} from {origin}: {hook_name}() raised "
                                       f"{type(exc).__name__}: {exc}") from exc
+                if not isinstance(objects, (list, tuple)):
+                    raise PluginError(f"Plugin {label!r} from {origin}: {hook_name}() returned "
+                                      f"{type(objects).__name__}; return a list of plugin "
+                                      f"objects, e.g. [{type(objects).__name__}()].")
                 for obj in objects:
                     problem = check_plugin_object(kind, obj)
                     if problem:
@@ -149,6 +169,18 @@ class PluginHost:
                             f"one from {origin}; uninstall or rename one of them.")
                     seen.add(key)
                     found.append((kind, obj))
+        claimed = dict(self._flags)
+        for kind, obj in found:
+            who = f"the {_what(kind)} {obj.name!r} from {origin}"
+            for flag in command_flags(kind, obj):
+                owner = claimed.get(flag)
+                # job kinds share flags (each is its own command), nobody else does
+                if owner is not None and not (kind == "job-kind" and owner.startswith(
+                        "the job kind ")):
+                    raise PluginError(
+                        f"Plugin {label!r} from {origin}: {who} would take the flag {flag}, "
+                        f"which {owner} already has; rename the option or the plugin.")
+                claimed.setdefault(flag, who)
         return found
 
     def plugins(self, kind: str) -> dict[str, Any]:
@@ -164,21 +196,25 @@ class PluginHost:
         available = self.plugins(kind)
         if name in available:
             return available[name]
+        what = _what(kind)
         off = [d for d in self.disabled if d.name == name]
         if off:
-            raise PluginError(f"The {kind} plugin {name!r} is switched off by {DISABLE_ENV}; "
+            raise PluginError(f"The {what} {name!r} is switched off by {DISABLE_ENV}; "
                               f"remove it from there or choose another: "
                               f"{', '.join(sorted(available)) or 'none'}.")
         broken = [b for b in self.broken if b.name == name]
         if broken:
-            raise PluginError(f"The {kind} plugin {name!r} failed to load ({broken[0].error}).")
+            raise PluginError(f"The {what} {name!r} failed to load ({broken[0].error}).")
         names = ", ".join(sorted(available)) or "none"
         failed = ""
         if self.broken:  # the one asked for may be among them, under its entry-point name
             shown = ", ".join(f"{b.name!r} from {b.origin}" for b in self.broken)
             failed = (f" {len(self.broken)} plugin package(s) failed to load and may hold it: "
                       f"{shown}; `inkmotion plugins` says why.")
-        raise PluginError(f"Unknown {kind} plugin {name!r}; available: {names}.{failed}")
+        if self.disabled:
+            off_names = ", ".join(repr(d.name) for d in self.disabled)
+            failed += f" {DISABLE_ENV} switches off {off_names}, which may hold it."
+        raise PluginError(f"Unknown {what} {name!r}; available: {names}.{failed}")
 
     def table(self) -> list[PluginInfo]:
         """Every plugin with kind, name, origin and one-line description, broken ones last."""
@@ -189,6 +225,81 @@ class PluginHost:
             for obj in self.plugins(kind).values()
         ]
         return rows + self.broken + self.disabled
+
+
+def is_built_in(obj: Any) -> bool:
+    """Whether plugin object ``obj`` came with inkmotion itself (its entry points)."""
+    return str(getattr(obj, "_inkmotion_origin", "")).startswith(f"{BUILT_IN} (")
+
+
+def plugin_at_fault(exc: BaseException) -> str | None:
+    """One sentence naming the third-party plugin whose code raised ``exc`` (the innermost
+    frame of its traceback in the package of a plugin object from another distribution
+    than inkmotion), or None when no such plugin is in it: the fault is then inkmotion's
+    own, and its traceback the report to file. Only an already loaded host is asked."""
+    if host.cache_info().currsize == 0:
+        return None
+    h = host()
+    by_module: dict[str, list[tuple[str, Any]]] = {}  # module -> its (kind, object)s
+    for kind in KIND_HOOKS:
+        for obj in h.plugins(kind).values():
+            if not is_built_in(obj):
+                by_module.setdefault(type(obj).__module__, []).append((kind, obj))
+    tb, found = exc.__traceback__, None
+    while tb is not None:
+        module = str(tb.tb_frame.f_globals.get("__name__", ""))
+        found = _plugin_of_frame(tb.tb_frame, by_module.get(module, [])) or found
+        tb = tb.tb_next
+    if found is None:
+        return None
+    culprit = (f"the {_what(found[0])} {found[1].name!r} from "
+               f"{getattr(found[1], '_inkmotion_origin', '?')}" if isinstance(found, tuple)
+               else f"a plugin of {found}")
+    return (f"{culprit} failed: {type(exc).__name__}: {_one_line(exc)}; this is a fault of "
+            f"that plugin, not of your input: tell its authors, or choose another plugin "
+            f"(`inkmotion plugins` lists them; {TRACEBACK_ENV}=1 shows the traceback).")
+
+
+def _plugin_of_frame(frame: Any, candidates: list[tuple[str, Any]]
+                     ) -> tuple[str, Any] | str | None:
+    """Which of ``candidates`` (the plugin objects of the frame's module) the frame runs:
+    the one that is its ``self``, or whose class its function is defined in (a closure
+    a method returned included); the only one of its module; else the module's origin
+    (several plugins share it), or None when the module holds no plugin."""
+    if not candidates:
+        return None
+    qualname = getattr(frame.f_code, "co_qualname", "")
+    for kind, obj in candidates:
+        if frame.f_locals.get("self") is obj or qualname.startswith(
+                type(obj).__qualname__ + "."):
+            return kind, obj
+    if len(candidates) == 1:
+        return candidates[0]
+    return str(getattr(candidates[0][1], "_inkmotion_origin", "?"))
+
+
+def command_flags(kind: str, obj: Any) -> list[str]:
+    """The command-line flags ``obj`` declares: a job kind's parameters (``--lambda-smooth``),
+    any other plugin's options as ``--PLUGIN-OPTION`` (``--dce-relevance``), switches
+    with their ``--no-`` form too. A ``run KIND`` command takes the kind's flags and those
+    of every plugin it can choose, so a plugin option's flag must be nobody else's (job
+    kinds may share theirs: each is a command of its own)."""
+    from inkmotion.jobs.params import describe
+
+    if kind == "job-kind":
+        infos = describe(obj.Params)
+        flags = [i.option for i in infos]
+    else:
+        cls = getattr(obj, "Options", None)
+        infos = describe(cls) if cls is not None else []
+        flags = [f"--{obj.name}-{i.name.replace('_', '-')}" for i in infos]
+    return flags + ["--no-" + f[2:] for f, i in zip(flags, infos, strict=True)
+                    if i.type is bool]
+
+
+def _what(kind: str) -> str:
+    """How a sentence names a plugin of ``kind``: "job kind", "image-loss plugin"."""
+    return "job kind" if kind == "job-kind" else f"{kind} plugin"
 
 
 def _one_line(exc: BaseException) -> str:

@@ -115,8 +115,10 @@ class Reader(Plugin, Protocol):
     def can_read(self, source: str) -> bool:
         """True when this reader understands ``source`` (a path or ``scheme:value``)."""
 
-    def read(self, source: str) -> Traces:
-        """Parse ``source``; raise :class:`inkmotion.errors.InputError` on bad input."""
+    def read(self, source: str, **options: Any) -> Traces:
+        """Parse ``source``; raise :class:`inkmotion.errors.InputError` on bad input. The
+        options of its ``Options`` arrive as keyword arguments when the job names the
+        reader (``--reader NAME``); a reader found by ``can_read`` gets its defaults."""
 
 
 class Tracer(Plugin, Protocol):
@@ -170,7 +172,8 @@ class RenderFunction(Protocol):
 
 class Renderer(Plugin, RenderFunction, Protocol):
     """Draws Bézier segments as a differentiable coverage image (the call of
-    :class:`RenderFunction`)."""
+    :class:`RenderFunction`). The options of its ``Options`` arrive as keyword arguments
+    of every call (and of ``session``, when it has one)."""
 
 
 class RendererOptional(PluginOptional, Protocol):
@@ -267,12 +270,15 @@ def check_plugin_object(kind: str, obj: Any) -> str | None:
 
     The members checked are :func:`protocol_members` of ``PROTOCOLS[kind]``: each must
     exist, the methods must be callable; ``name`` and ``description`` first, with their
-    own phrases. A job kind's ``Params`` must moreover be a dataclass and its ``queue`` a
-    non-empty string (what a protocol cannot say).
+    own phrases. A job kind's ``Params`` and any plugin's ``Options`` must moreover be a
+    dataclass with a default for every field, and a job kind's ``queue`` a non-empty
+    string (what a protocol cannot say).
     """
     name = getattr(obj, "name", None)
     if not isinstance(name, str) or not name or any(c.isspace() for c in name):
-        return f"a {kind} plugin object {obj!r} has no valid `name` (a word)"
+        article = "an" if kind[0] in "aeiou" else "a"
+        return (f"{article} {kind} plugin object of class {type(obj).__name__} has no valid "
+                f"`name` (a word without spaces)")
     if not isinstance(getattr(obj, "description", None), str):
         return f"the {kind} plugin {name!r} has no `description` string"
     members = protocol_members(PROTOCOLS.get(kind, Plugin))
@@ -283,11 +289,71 @@ def check_plugin_object(kind: str, obj: Any) -> str | None:
                     and not callable(obj if m == "__call__" else getattr(obj, m))]
     if not_callable:
         return f"the {kind} plugin {name!r}: {', '.join(not_callable)} must be callable"
+    for m, method in members.items():
+        problem = _call_problem(PROTOCOLS.get(kind, Plugin), m, obj) if method else None
+        if problem:
+            return f"the {kind} plugin {name!r}: {problem}"
     if kind == "job-kind":
-        import dataclasses
-
-        if not (isinstance(obj.Params, type) and dataclasses.is_dataclass(obj.Params)):
-            return f"the job kind {name!r}: Params must be a dataclass"
+        problem = _settings_problem(obj.Params, "Params")
+        if problem:
+            return f"the job kind {name!r}: {problem}"
         if not isinstance(obj.queue, str) or not obj.queue:
             return f"the job kind {name!r}: queue must name a Celery queue"
+    elif getattr(obj, "Options", None) is not None:
+        problem = _settings_problem(obj.Options, "Options")
+        if problem:
+            return f"the {kind} plugin {name!r}: {problem}"
+    return None
+
+
+def _call_problem(protocol: type, member: str, obj: Any) -> str | None:
+    """Why ``obj``'s method ``member`` cannot take the arguments inkmotion calls it with
+    (the protocol's: its positional ones, each keyword-only one by name, and where the
+    protocol has ``**options`` every field of the plugin's ``Options``), or None. A
+    signature that cannot be read (a builtin) is taken on trust."""
+    import dataclasses
+    import inspect
+
+    try:
+        wanted = inspect.signature(getattr(protocol, member))
+        given = inspect.signature(obj if member == "__call__" else getattr(obj, member))
+    except (TypeError, ValueError):
+        return None
+    params = list(wanted.parameters.values())[1:]  # without self
+    args = [p.name for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    kwargs = [p.name for p in params if p.kind is p.KEYWORD_ONLY]
+    options = getattr(obj, "Options", None)
+    passed = list(kwargs)
+    if any(p.kind is p.VAR_KEYWORD for p in params) and dataclasses.is_dataclass(options):
+        passed += [f.name for f in dataclasses.fields(options)]  # its options, every one
+    try:
+        given.bind(*args, **dict.fromkeys(passed))
+    except TypeError as exc:
+        call = ", ".join(args + (["*"] + kwargs if kwargs else [])
+                         + (["**options"] if any(p.kind is p.VAR_KEYWORD for p in params)
+                            else []))
+        return (f"{member}{given} cannot take what inkmotion passes it ({exc}); declare it "
+                f"as {member}(self, {call})")
+    return None
+
+
+def _settings_problem(cls: Any, member: str) -> str | None:
+    """Why a job kind's ``Params`` or a plugin's ``Options`` cannot be its settings (one
+    phrase), or None: it must be a dataclass whose fields all have a default (a job.json
+    or a command line may leave any of them out) and whose type hints resolve."""
+    import dataclasses
+    import typing
+
+    if not (isinstance(cls, type) and dataclasses.is_dataclass(cls)):
+        return (f"{member} must be a dataclass (add @dataclass above class "
+                f"{getattr(cls, '__name__', cls)})")
+    bare = [f.name for f in dataclasses.fields(cls) if f.default is dataclasses.MISSING
+            and f.default_factory is dataclasses.MISSING]
+    if bare:
+        return (f"{member} field(s) {', '.join(bare)} have no default; give each one, e.g. "
+                f"param(1.0, \"what it does\")")
+    try:
+        typing.get_type_hints(cls)
+    except Exception as exc:  # a hint naming what its module does not import
+        return f"{member}'s type hints do not resolve ({type(exc).__name__}: {exc})"
     return None
