@@ -32,12 +32,13 @@ PLUGINS = textwrap.dedent('''
     @dataclass
     class GammaOptions:
         gamma: float = param(0.5, "Coverage exponent.", minimum=0.1, maximum=5.0)
+        edge: str = param("soft", "How the rim is drawn.", choices=("soft", "hard"))
 
 
     class GammaRenderer:
         name, description, Options = "gamma", "Raster coverage to a power.", GammaOptions
 
-        def __call__(self, segments, widths, height, width, gamma=0.5):
+        def __call__(self, segments, widths, height, width, gamma=0.5, edge="soft"):
             from inkmotion.rendering.raster import render_segments
             _note(f"gamma {gamma}")
             return render_segments(segments, widths, height, width).clamp(1e-6, 1) ** gamma
@@ -164,6 +165,7 @@ def test_a_clashing_flag_leaves_the_command_working_and_the_plugin_listed_as_bro
     res = _cli(package, "run", "fit", "--help")
     assert res.returncode == 0, res.stderr
     assert "--gamma-gamma" in res.stdout and "--dots-scale" in res.stdout
+    assert "One of: soft, hard." in " ".join(res.stdout.split())  # its choices are told
     assert res.stderr.startswith("warning: inkmotion skipped a plugin: ")
     assert "would take the flag --max-error, which the job kind 'fit'" in res.stderr
     assert "Traceback" not in res.stderr and "manager.py" not in res.stderr
@@ -243,3 +245,13 @@ def test_trace_takes_a_tracers_options_as_run_fit_does() -> None:
     with pytest.raises(SpecError, match="trace takes no option --invrt; the rev tracer's "
                                         "options are: --rev-flip, --rev-spacing"):
         tracer_options(tracer, ["--invrt"])
+
+
+def test_job_json_names_the_plugin_packages_a_result_was_made_with(package, tmp_path) -> None:
+    res = _cli(package, "run", "fit", "text:hi", "--renderer", "gamma", "--steps", "3",
+               "--out", str(tmp_path / "o"))
+    assert res.returncode == 0, res.stderr
+    job = json.loads((tmp_path / "o" / "job.json").read_text())
+    assert job["versions"]["plugins"] == {"faulty-plugins": "0.1"}
+    res = _cli(package, "run", "fit", "text:hi", "--steps", "3", "--out", str(tmp_path / "b"))
+    assert "plugins" not in json.loads((tmp_path / "b" / "job.json").read_text())["versions"]

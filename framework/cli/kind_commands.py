@@ -68,7 +68,10 @@ def option_parameter(info: ParamInfo, dest: str, panel: str | None = None) -> in
     """A typer option for one parameter, as a signature entry, shown in help panel
     ``panel``; unset options are None (the config's or the kind's default applies)."""
     default = _default_text(info)
-    help_text = _escape(f"{info.help} [default: {default}]" if default else info.help)
+    text = info.help
+    if info.choices and not all(c in text for c in info.choices):  # choices not told
+        text = f"{text} One of: {', '.join(info.choices)}."
+    help_text = _escape(f"{text} [default: {default}]" if default else text)
     py: Any = {int: int, float: float, bool: bool}.get(info.type, str)
     if info.plugin_kind is not None:
         py = str
@@ -183,8 +186,9 @@ def _set_plugin_option(spec: JobSpec, info: ParamInfo, plugin_name: str, opt: Pa
 
 
 def _help(kind: Any, verb: str) -> str:
-    lines = [kind.description, "", "Examples:", ""]
-    for example in getattr(kind, "examples", ()):
+    examples = tuple(getattr(kind, "examples", ()))
+    lines = [kind.description, "", "Examples:", ""] if examples else [kind.description]
+    for example in examples:
         if verb == "submit":
             example = example.replace("inkmotion run", "inkmotion submit")
             example = " ".join(_drop_out(example.split()))

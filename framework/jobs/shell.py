@@ -159,6 +159,38 @@ def versions() -> dict[str, str]:
             "numpy": np.__version__, "python": platform.python_version()}
 
 
+def plugin_packages(spec: JobSpec) -> dict[str, str]:
+    """The version of each package outside inkmotion whose plugin ``spec`` uses (its job
+    kind, or a plugin one of its parameters chose), by distribution name: a result made
+    with another package's code says which release of it."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from inkmotion.jobs.kind import job_kind
+    from inkmotion.jobs.params import describe
+    from inkmotion.plugin_host import host
+    from inkmotion.plugin_host.manager import is_built_in
+
+    kind = job_kind(spec.kind)
+    used = [kind]
+    for info in describe(kind.Params):
+        value = spec.params.get(info.name) if info.plugin_kind is not None else None
+        for choice in value if isinstance(value, list) else [value]:
+            name = choice.get("name") if isinstance(choice, dict) else choice
+            available = host().plugins(info.plugin_kind) if info.plugin_kind else {}
+            if isinstance(name, str) and name in available:
+                used.append(available[name])
+    out: dict[str, str] = {}
+    for obj in used:
+        if is_built_in(obj):
+            continue
+        dist = str(getattr(obj, "_inkmotion_origin", "local")).split(" (")[0]
+        try:
+            out[dist] = version(dist)
+        except (PackageNotFoundError, ValueError):
+            out[dist] = "unknown"
+    return dict(sorted(out.items()))
+
+
 def standard_observers(spec: JobSpec, *, record: bool, progress: bool,
                        recording_id: str | None = None) -> list[object]:
     """The rerun recorder (``record``) and the progress bar (``progress``) for ``spec``."""
@@ -364,7 +396,9 @@ def record_job(folder: Path, spec: JobSpec, report: dict) -> None:
     """Write job.json (the spec, versions, seed, and the report's ``provenance``: what the
     result was made with beyond the spec, e.g. ``"clip_weights": "random"``) and report.json
     into ``folder``."""
-    job = {"spec": spec.to_dict(), "versions": versions(), "seed": spec.seed,
-           **report.get("provenance", {})}
+    used = plugin_packages(spec)
+    job = {"spec": spec.to_dict(), "versions": {**versions(), **({"plugins": used} if used
+                                                                  else {})},
+           "seed": spec.seed, **report.get("provenance", {})}
     (folder / "job.json").write_text(dumps(job, indent=1))
     (folder / "report.json").write_text(dumps(report, indent=1))
