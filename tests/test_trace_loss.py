@@ -141,6 +141,34 @@ def test_a_stroke_is_matched_only_to_the_paths_that_follow_it() -> None:
     assert anyone.tolist() == [[True]]  # a path that follows nothing may cover anything
 
 
+def test_ownership_is_each_paths_own_nearest_distance_test_done_once_for_all_paths() -> None:
+    """One tree over every path's samples asked once per stroke gives, bit for bit, the
+    ownership a tree per path asked per stroke gave (paths × strokes queries: minutes for
+    a drawing of thousands of short strokes); random strokes and paths, some crossing."""
+    from scipy.spatial import cKDTree
+
+    from inkmotion.fitting.trace_loss import OWN_WITHIN
+    from inkmotion.geometry.chamfer import densify
+
+    rng = np.random.default_rng(7)
+    strokes = [np.cumsum(rng.normal(0, 6, (rng.integers(2, 9), 2)), 0) + rng.uniform(0, 200, 2)
+               for _ in range(40)]
+    paths = [s + rng.normal(0, 2.0, s.shape) for s in strokes[:25]] + [
+        np.cumsum(rng.normal(0, 20, (6, 2)), 0) + 100 for _ in range(5)]
+    ref = TraceReference.of(strokes, dtype=torch.float64, device="cpu")
+    own = ref.ownership(paths).numpy()
+    reach = OWN_WITHIN * ref.unit
+    expected = np.zeros_like(own)
+    for p, xy in enumerate(paths):
+        tree = cKDTree(densify(xy, 0.5))
+        for s, stroke in enumerate(ref.strokes):
+            d, _ = tree.query(densify(stroke, 1.0))
+            expected[s, p] = np.mean(d <= reach) >= 0.5
+    expected[~expected.any(axis=1), :] = True
+    expected[:, ~expected.any(axis=0)] = True
+    assert 0 < own.sum() < own.size and (own == expected).all()
+
+
 def test_matches_are_state_and_a_resumed_loss_repeats_the_arithmetic() -> None:
     """Steps between searches reuse the matches; with the matches restored, a second loss
     object gives the same values bit for bit."""
