@@ -1,7 +1,7 @@
 """Reader "svg": SVG paths and basic shapes, transforms honoured, one stroke per subpath.
 
-The declaration only (files ending in ``.svg``); parsing and curve flattening are
-:mod:`inkmotion.inputs.svg`.
+The declaration only (files ending in ``.svg``, or ``.svgz`` compressed); parsing and curve
+flattening are :mod:`inkmotion.inputs.svg`.
 """
 
 from __future__ import annotations
@@ -21,11 +21,12 @@ class SvgReader:
     """Reads SVG files (paths and basic shapes, transforms honoured) into traces."""
 
     name = "svg"
-    description = "SVG paths and shapes, transforms honoured, one stroke per subpath."
+    description = ("SVG paths and shapes (.svg, .svgz), transforms honoured, one stroke per "
+                   "subpath.")
 
     def can_read(self, source: str) -> bool:
-        """True for paths ending in ``.svg``."""
-        return Path(source).suffix.lower() == ".svg"
+        """True for paths ending in ``.svg`` or ``.svgz`` (gzip-compressed)."""
+        return Path(source).suffix.lower() in (".svg", ".svgz")
 
     def read(self, source: str) -> Traces:
         """Parse ``source`` (:func:`inkmotion.inputs.svg.read_svg`); every malformed or

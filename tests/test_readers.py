@@ -3,6 +3,7 @@ dispatch, on small made inputs."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -92,10 +93,11 @@ def test_gml_several_tags_and_drawings():
 @pytest.mark.parametrize("name", ["tag.json", "tag.jsonp"])
 def test_gml_json_forms(name):
     t = read_gml(data(name))
-    # stroke 2 is isDrawing=false, stroke 3 a single point (dropped)
-    assert [len(s) for s in t.strokes] == [3, 2]
+    # stroke 2 is isDrawing=false, stroke 3 a single point (a tap: a dab, second)
+    assert [len(s) for s in t.strokes] == [3, 2, 2]
     np.testing.assert_allclose(t.strokes[0], [[0, 0], [640, 0], [640, 480]])
-    np.testing.assert_allclose(t.strokes[1], [[160, 240], [480, 240]])
+    np.testing.assert_allclose(t.strokes[1][0], [320, 240])  # the tap, in its place
+    np.testing.assert_allclose(t.strokes[2], [[160, 240], [480, 240]])
     assert "t" not in t.meta  # the last stroke has no times
 
 
@@ -206,6 +208,85 @@ def test_svg_of_filled_shapes_says_it_is_drawn_along_their_outlines(tmp_path: Pa
     t = read_svg(str(filled))
     assert len(t.strokes) == 1 and "outlines" in t.meta["notes"][0]
     assert "notes" not in read_svg(data("shapes.svg")).meta  # stroked: nothing to say
+
+
+_SVG = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 120 80">{}</svg>'
+_LINES = ('<path d="M10 70L30 10L50 70" stroke="black" stroke-width="4" fill="none"/>'
+          '<path d="M60 40L110 40" stroke="black" stroke-width="4"/>')
+
+
+@pytest.mark.parametrize("paper, note", [
+    # Figma's frame, matplotlib's figure patch: a white fill behind the lines
+    ('<rect width="120" height="80" fill="white"/>', "its white filled shape (the paper's"),
+    ('<path d="M0 80L120 80L120 0L0 0z" style="fill: #ffffff"/>', "white filled shape"),
+    # a page of another colour behind the lines, and a white highlight among them
+    ('<rect x="-5" y="-5" width="130" height="90" fill="#203040"/>', "its background"),
+    ('<circle cx="60" cy="40" r="5" fill="#fafafa"/>', "white filled shape"),
+])
+def test_svg_paper_is_not_ink(tmp_path: Path, paper: str, note: str):
+    """A white-filled page or highlight, or a filled background behind every line, was
+    drawn as strokes (a frame round the drawing that shrank it); it is left out, said."""
+    f = tmp_path / "export.svg"
+    f.write_text(_SVG.format(paper + _LINES))
+    t = read_svg(str(f))
+    assert len(t.strokes) == 2 and note in " ".join(t.meta["notes"])
+    np.testing.assert_allclose(t.strokes[0][0], [10, 70])
+    only_white = tmp_path / "white.svg"  # nothing else painted: the white shape is the drawing
+    only_white.write_text(_SVG.format('<circle cx="60" cy="40" r="5" fill="white"/>'))
+    assert len(read_svg(str(only_white)).strokes) == 1
+    filled_logo = tmp_path / "logo.svg"  # no line art: a filled shape is no background
+    filled_logo.write_text(_SVG.format('<rect width="120" height="80" fill="black"/>'
+                                       '<circle cx="60" cy="40" r="5" fill="red"/>'))
+    assert len(read_svg(str(filled_logo)).strokes) == 2
+
+
+@pytest.mark.parametrize("body, said", [
+    ('<g style="display:none">' + _LINES + '</g>', "every shape of the SVG is hidden"),
+    ('<g visibility="hidden">' + _LINES + '</g>', "every shape of the SVG is hidden"),
+    ('<path d="hello" stroke="black"/>', "a path's data is not valid SVG path data "
+                                         '(d="hello")'),
+])
+def test_svg_refusals_say_what_is_wrong(tmp_path: Path, body: str, said: str):
+    f = tmp_path / "bad.svg"
+    f.write_text(_SVG.format(body))
+    with pytest.raises(InputError, match=re.escape(said)):
+        read_svg(str(f))
+    page = tmp_path / "page.svg"  # an HTML page saved with an .svg name
+    page.write_text('<html xmlns="http://www.w3.org/1999/xhtml"><body>hi</body></html>')
+    with pytest.raises(InputError, match="XML but not an SVG"):
+        read_svg(str(page))
+
+
+def test_svgz_and_collapsed_shapes(tmp_path: Path):
+    """Inkscape's compressed .svgz is read (it was refused as no reader's); a shape with
+    visibility: collapse is hidden, as with hidden."""
+    import gzip
+
+    from inkmotion.kinds.read import read_input
+
+    f = tmp_path / "drawing.svgz"
+    f.write_bytes(gzip.compress(_SVG.format(
+        _LINES + '<path d="M0 0L5 5" stroke="black" visibility="collapse"/>').encode()))
+    assert len(read_input(str(f)).strokes) == 2
+
+
+def test_dots_are_drawn_as_dabs_in_their_place(tmp_path: Path):
+    """A zero-length subpath (an SVG's round-cap dot) and a one-point GML stroke (a tap)
+    were dropped without a word; each is a dab now, where it was in the drawing order."""
+    f = tmp_path / "i.svg"
+    f.write_text(_SVG.format('<path d="M20 10 Z M20 30 L20 70" stroke="black" '
+                             'stroke-linecap="round"/>'))
+    t = read_svg(str(f))
+    assert [len(s) for s in t.strokes] == [2, 2]
+    np.testing.assert_allclose(t.strokes[0], [[20, 10], [20 + 0.003 * 60, 10]])
+    assert "its dot (a stroke of one point, a tap of the pen) is drawn as a dab" in \
+        t.meta["notes"][0]
+    g = tmp_path / "tap.gml"
+    g.write_text("<gml><tag><drawing><stroke><pt><x>0.5</x><y>0.5</y><t>0</t></pt></stroke>"
+                 "<stroke><pt><x>0.2</x><y>0.1</y><t>0.1</t></pt><pt><x>0.2</x><y>0.9</y>"
+                 "<t>0.3</t></pt></stroke></drawing></tag></gml>")
+    t = gml.read_gml(str(g))
+    assert [len(s) for s in t.strokes] == [2, 2] and [len(x) for x in t.meta["t"]] == [2, 2]
 
 
 def test_svg_nested_transform():

@@ -93,6 +93,7 @@ def plugin_options(kind: Any) -> dict[str, tuple[ParamInfo, str, ParamInfo]]:
     """``dest -> (the kind's plugin parameter, plugin name, option)`` for every option of
     every registered plugin the kind's parameters can choose."""
     from inkmotion.plugin_host import host
+    from inkmotion.plugin_host.protocols import option_flag
 
     out: dict[str, tuple[ParamInfo, str, ParamInfo]] = {}
     for info in describe(kind.Params):
@@ -101,7 +102,7 @@ def plugin_options(kind: Any) -> dict[str, tuple[ParamInfo, str, ParamInfo]]:
         for name, plugin in sorted(host().plugins(info.plugin_kind).items()):
             cls = getattr(plugin, "Options", None)
             for opt in describe(cls) if cls is not None else []:
-                flag = f"--{name}-{opt.name.replace('_', '-')}"
+                flag = option_flag(name, opt.name)
                 dest = flag[2:].replace("-", "_")
                 if dest not in out:
                     out[dest] = (info, name, ParamInfo(

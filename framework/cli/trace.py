@@ -74,9 +74,10 @@ def tracer_options(tracer: Any, args: list[str]) -> dict[str, Any]:
     in ``args`` give ``tracer`` (named NAME), checked against its ``Options`` as a fit's
     are; anything else in ``args`` is refused in one sentence."""
     from inkmotion.jobs.params import PluginChoice, describe, options_dict, plugin_options
+    from inkmotion.plugin_host.protocols import option_flag
 
     cls = getattr(tracer, "Options", None)
-    infos = {f"--{tracer.name}-{i.name.replace('_', '-')}": i
+    infos = {option_flag(tracer.name, i.name): i
              for i in (describe(cls) if cls is not None else [])}
     raw: dict[str, Any] = {}
     words = list(args)

@@ -10,6 +10,9 @@ from inkmotion.errors import InputError
 
 #: readers refuse inputs with more points than this (all strokes together)
 MAX_POINTS = 200_000
+#: a dot (a stroke of one point, a tap of the pen) is drawn as a stroke this share of
+#: the drawing's longer side long, rightwards: at 350 px, a pen's dab 1 px long
+DOT_SHARE = 0.003
 #: a picture is cropped to what lands on the canvas before it is resized when the whole
 #: of it resized would be more than this many canvases (:func:`_warp`)
 WARP_CROP = 4.0
@@ -45,7 +48,7 @@ class Traces:
                 f"{self.source}: {self.n_points} points is more than the limit of {MAX_POINTS}; "
                 "simplify the drawing or split it into several inputs."
             )
-        kept = []
+        kept, dots = [], []
         for s in self.strokes:
             s = np.asarray(s, dtype=np.float64)
             if s.ndim != 2 or s.shape[1] not in (2, 3):
@@ -60,6 +63,20 @@ class Traces:
             s = s[keep]
             if len(s) >= 2:
                 kept.append(s)
+            elif len(s) == 1:
+                dots.append(len(kept))
+                kept.append(s)
+        meta = dict(self.meta)
+        if dots and len(dots) == len(kept) and np.ptp(np.concatenate(kept)[:, :2], axis=0).max(
+                ) <= 1e-12:  # taps at one place only: nothing to draw (below)
+            kept = []
+        elif dots:  # in place: the drawing order stays the recorded one
+            kept = _with_dabs(kept, dots)
+            said = f"{len(dots)} dots" if len(dots) > 1 else "dot"
+            meta["notes"] = [*meta.get("notes", []), f"its {said} (a stroke of one point, "
+                             f"a tap of the pen) {'are' if len(dots) > 1 else 'is'} drawn as "
+                             f"{'dabs' if len(dots) > 1 else 'a dab'}, a stroke "
+                             f"{DOT_SHARE:.1%} of the drawing long"]
         if not kept:
             raise InputError(
                 f"{self.source}: no stroke has two distinct points, so there is nothing to draw; "
@@ -69,7 +86,7 @@ class Traces:
         hi = np.max([s[:, :2].max(axis=0) for s in kept], axis=0)
         if np.max(hi - lo) <= 1e-12:
             raise InputError(f"{self.source}: all points are equal, so there is nothing to draw.")
-        return Traces(kept, self.source, self.width, self.height, dict(self.meta), self.picture)
+        return Traces(kept, self.source, self.width, self.height, meta, self.picture)
 
     def fit_to_canvas(self, size: float, margin: float = 0.08) -> Traces:
         """Scale uniformly (aspect kept) so the bounding box fills a canvas of longer side
@@ -128,3 +145,13 @@ def _warp(image: np.ndarray, scale: float, shift: np.ndarray, canvas: np.ndarray
     return cv2.warpAffine(resized, m, (int(canvas[0]), int(canvas[1])),
                           flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                           borderValue=0.0)
+
+
+def _with_dabs(strokes: list[np.ndarray], dots: list[int]) -> list[np.ndarray]:
+    """``strokes`` with each dot among them (the indices ``dots``, (1, D) points) made a
+    stroke of two points, :data:`DOT_SHARE` of the longer side of the whole drawing long,
+    rightwards from the dot."""
+    every = np.concatenate([s[:, :2] for s in strokes])
+    step = np.zeros(strokes[dots[0]].shape[1])
+    step[0] = DOT_SHARE * float(np.max(every.max(axis=0) - every.min(axis=0)))
+    return [np.vstack((s, s + step)) if i in set(dots) else s for i, s in enumerate(strokes)]

@@ -318,6 +318,11 @@ def _check_count(tag: _Tag, points: list, source: str) -> None:
         )
 
 
+#: how long a tap of the pen (a stroke of one point, drawn as a dab) lasts in the
+#: recording's time: one frame of a 60-Hz capture
+TAP_SECONDS = 1 / 60
+
+
 def _drop_repeats(points: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop consecutive repeated points (as :meth:`Traces.validated` does) keeping times
     aligned; non-finite points are kept so validation reports them."""
@@ -338,9 +343,10 @@ def _to_traces(tags: list[_Tag], source: str) -> Traces:
             pts = (np.asarray(s.points, dtype=np.float64) * scale) @ rot.T  # (k, 2)
             t = np.array([np.nan if v is None else v for v in s.times], dtype=np.float64)
             pts, t = _drop_repeats(pts, t)
-            if len(pts) >= 2:
-                strokes.append(pts)
-                times.append(t)
+            if len(pts) == 1:  # a tap: drawn as a dab (Traces.validated), one frame long
+                t = np.append(t, t[0] + TAP_SECONDS)
+            strokes.append(pts)
+            times.append(t)
     if not strokes and not any(s.points for tag in tags for s in tag.strokes):
         raise InputError(
             f"{source}: the GML has no pen-down points, so there is nothing to draw; "

@@ -5,7 +5,8 @@ Parsing, units, ``viewBox`` and nested ``transform`` attributes are handled by
 `svgelements <https://github.com/meerk40t/svgelements>`_ (``SVG.parse`` reifies every
 transform into the geometry). Every visible shape (``path``, ``polyline``, ``polygon``,
 ``line``, ``rect``, ``circle``, ``ellipse``, shapes reached through ``use``) becomes a
-path (a shape that paints nothing, no stroke or fill or an opacity of 0, is left out);
+path (a shape that paints nothing, no stroke or fill or an opacity of 0, is left out, and
+so is paper: a white fill with no stroke, and a filled background behind all the lines);
 each subpath (a ``M`` … run) becomes one stroke. Closed subpaths end at their start point.
 A drawing whose every shape is a filled area with no stroke (a logo, text turned into
 paths) is drawn along its outlines, and ``meta["notes"]`` says so and how to fit the
@@ -34,6 +35,9 @@ MAX_FILE_BYTES = DEFAULT_MAX_FILE_BYTES
 FLATNESS = 2e-4
 #: deepest subdivision per curve segment (2**MAX_DEPTH intervals at most)
 MAX_DEPTH = 12
+#: a filled shape with no stroke whose every channel is at least this (0-255) is the
+#: paper's colour (white, or nearly), not ink
+PAPER_LEVEL = 240
 
 
 def read_svg(source: str) -> Traces:
@@ -42,15 +46,34 @@ def read_svg(source: str) -> Traces:
     with reader_boundary(source, "SVG", "check that it is a complete, well-formed SVG file."):
         import svgelements as se
 
-        shown = _shown(se.SVG.parse(str(path)))
-        shapes = [el for el in shown if isinstance(el, se.Shape) and _painted(el)]
-        hidden = not shapes and any(isinstance(el, se.Shape) for el in shown)
+        document = _document(path, source)
+        try:
+            parsed = se.SVG.parse(document)
+        except Exception as exc:
+            bad = _bad_path_data(exc, se)
+            if bad is None:
+                raise
+            raise InputError(f"{source}: a path's data is not valid SVG path data "
+                             f"(d=\"{bad[:40]}\"); fix or remove that path.") from exc
+        if not isinstance(parsed, se.SVG):  # svgelements gives what it found: no <svg> root
+            raise InputError(f"{source}: the file is XML but not an SVG (its root is not "
+                             f"<svg>); export the drawing as an SVG.")
+        shown = _shown(parsed)
+        painted = [el for el in shown if isinstance(el, se.Shape) and _painted(el)]
+        hidden = not painted and any(isinstance(el, se.Shape) for el in shown)
+        shapes, paper, backgrounds = _ink(painted)
         strokes = _flatten(shapes, se, source)
         filled = bool(shapes) and all(  # filled areas with no stroke: a logo's export
             el.fill is not None and el.fill.value is not None
             and (el.stroke is None or el.stroke.value is None) for el in shapes)
         texts = sum(isinstance(el, se.Text) for el in shown)  # text that is still text
         images = sum(isinstance(el, se.Image) for el in shown)  # embedded pictures
+    if not strokes and not hidden and _any_hidden_shape(path, source):
+        raise InputError(
+            f"{source}: every shape of the SVG is hidden (display: none or visibility: "
+            "hidden, a hidden layer), so there is nothing to draw; show the layer with the "
+            "lines to draw."
+        )
     if not strokes and hidden:
         raise InputError(
             f"{source}: every shape of the SVG is invisible (no stroke or fill, or an "
@@ -64,6 +87,13 @@ def read_svg(source: str) -> Traces:
         )
     meta: dict[str, Any] = {"format": "svg"}
     notes = []
+    if paper:
+        which = f"{paper} white filled shapes" if paper > 1 else "white filled shape"
+        notes.append(f"its {which} (the paper's colour: a page, a highlight) "
+                     f"{'are' if paper > 1 else 'is'} not drawn")
+    if backgrounds:
+        notes.append("its background (a filled shape with no outline behind all of its "
+                     "lines) is not drawn")
     if filled:
         notes.append("its shapes are filled areas with no stroke, so the motion follows "
                      "their outlines; to draw their centre lines instead, export the "
@@ -81,12 +111,98 @@ def read_svg(source: str) -> Traces:
     return Traces(strokes, source=source, meta=meta).validated()
 
 
+def _document(path: Any, source: str) -> Any:
+    """What to parse: the file's path, or its text unpacked when it is gzip-compressed (an
+    ``.svgz``, as Inkscape saves it, or such data under another name)."""
+    import gzip
+    import io
+
+    with open(path, "rb") as f:
+        compressed = f.read(2) == b"\x1f\x8b"
+    if not compressed:
+        return str(path)
+    with gzip.open(path, "rb") as f:
+        data = f.read(MAX_FILE_BYTES + 1)
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(f"{source}: unpacked, the SVG is more than the "
+                         f"{MAX_FILE_BYTES // 2**20} MB limit; simplify the drawing or split it.")
+    return io.BytesIO(data)
+
+
+def _bad_path_data(exc: BaseException, se: Any) -> str | None:
+    """The ``d`` of the path whose data svgelements failed on while raising ``exc`` (a
+    frame of its ``Path.parse`` in the traceback), or None when the failure lies
+    elsewhere."""
+    tb = exc.__traceback__
+    while tb is not None:
+        frame = tb.tb_frame
+        if frame.f_code.co_name == "parse" and isinstance(frame.f_locals.get("self"), se.Path):
+            return str(frame.f_locals.get("pathdef", ""))
+        tb = tb.tb_next
+    return None
+
+
+def _any_hidden_shape(path: Any, source: str) -> bool:
+    """Whether the SVG holds a shape that is not displayed (parsed again, with what
+    ``display: none`` hides)."""
+    import svgelements as se
+
+    return any(isinstance(el, se.Shape) for el in
+               se.SVG.parse(_document(path, source), parse_display_none=True).elements())
+
+
 def _shown(svg: Any) -> list[Any]:
-    """The elements of ``svg`` whose ``visibility`` is not hidden (svgelements already
-    leaves out ``display: none`` and ``defs``); a shape among them is drawn when it paints
-    something (:func:`_painted`)."""
+    """The elements of ``svg`` whose ``visibility`` is neither hidden nor collapsed
+    (svgelements already leaves out ``display: none`` and ``defs``); a shape among them
+    is drawn when it paints something (:func:`_painted`)."""
     return [el for el in svg.elements()
-            if str(getattr(el, "values", {}).get("visibility", "visible")) != "hidden"]
+            if str(getattr(el, "values", {}).get("visibility", "visible")) not in (
+                "hidden", "collapse")]
+
+
+def _ink(shapes: list[Any]) -> tuple[list[Any], int, int]:
+    """The painted ``shapes`` that are the drawing, and how many were left out as paper:
+    filled shapes with no stroke in white (each channel at least :data:`PAPER_LEVEL`, as
+    a page or a matplotlib figure's patch is exported), unless nothing else is painted;
+    then, when some shape is stroked (line art), a filled shape with no stroke whose box
+    holds every stroked shape's box (a background rectangle, whatever its colour)."""
+    def unstroked_fill(el: Any) -> bool:
+        return _filled(el) and not _stroked(el)
+
+    def white(el: Any) -> bool:
+        return min(el.fill.red, el.fill.green, el.fill.blue) >= PAPER_LEVEL
+
+    ink = [el for el in shapes if not (unstroked_fill(el) and white(el))] or shapes
+    paper = len(shapes) - len(ink)
+    lines = [el.bbox() for el in ink if _stroked(el)]
+    lines = [b for b in lines if b is not None]
+    if not lines:
+        return ink, paper, 0
+    lo = np.min([b[:2] for b in lines], axis=0)
+    hi = np.max([b[2:] for b in lines], axis=0)
+    slack = 1e-6 * max(float(np.hypot(*(hi - lo))), 1.0)
+
+    def behind_everything(el: Any) -> bool:
+        box = el.bbox() if unstroked_fill(el) else None
+        return box is not None and bool((np.asarray(box[:2]) <= lo + slack).all()
+                                         and (np.asarray(box[2:]) >= hi - slack).all())
+
+    drawing = [el for el in ink if not behind_everything(el)]
+    return drawing, paper, len(ink) - len(drawing)
+
+
+def _stroked(shape: Any) -> bool:
+    """Whether ``shape`` has a visible stroke (a colour, not fully transparent, of a width
+    above 0)."""
+    stroke = shape.stroke
+    return (stroke is not None and stroke.value is not None and stroke.alpha > 0
+            and (shape.stroke_width is None or shape.stroke_width > 0))
+
+
+def _filled(shape: Any) -> bool:
+    """Whether ``shape`` has a visible fill (a colour, not fully transparent)."""
+    fill = shape.fill
+    return fill is not None and fill.value is not None and fill.alpha > 0
 
 
 def _painted(shape: Any) -> bool:
@@ -99,11 +215,7 @@ def _painted(shape: Any) -> bool:
             return False
     except (TypeError, ValueError):
         pass  # an opacity that is not a number: as if it were not given
-    stroke, fill = shape.stroke, shape.fill
-    stroked = (stroke is not None and stroke.value is not None and stroke.alpha > 0
-               and (shape.stroke_width is None or shape.stroke_width > 0))
-    filled = fill is not None and fill.value is not None and fill.alpha > 0
-    return stroked or filled
+    return _stroked(shape) or _filled(shape)
 
 
 def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:

@@ -114,7 +114,9 @@ class ParamInfo:
     @property
     def option(self) -> str:
         """The command-line flag, e.g. ``--lambda-smooth``."""
-        return self.flag or "--" + self.name.replace("_", "-")
+        from inkmotion.plugin_host.protocols import field_flag
+
+        return field_flag(self.name, self.flag)
 
 
 def describe(cls: type) -> list[ParamInfo]:

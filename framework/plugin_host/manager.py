@@ -30,7 +30,7 @@ import pluggy
 from inkmotion.errors import PluginError
 from inkmotion.plugin_host import hookspecs
 from inkmotion.plugin_host.hookspecs import KIND_HOOKS, PROJECT
-from inkmotion.plugin_host.protocols import check_plugin_object
+from inkmotion.plugin_host.protocols import check_plugin_object, field_flag, option_flag
 
 ENTRY_POINT_GROUP = "inkmotion"
 #: the distribution of the built-in plugins (loaded before any other package's)
@@ -284,17 +284,21 @@ def command_flags(kind: str, obj: Any) -> list[str]:
     with their ``--no-`` form too. A ``run KIND`` command takes the kind's flags and those
     of every plugin it can choose, so a plugin option's flag must be nobody else's (job
     kinds may share theirs: each is a command of its own)."""
-    from inkmotion.jobs.params import describe
+    import dataclasses
+    import typing
 
-    if kind == "job-kind":
-        infos = describe(obj.Params)
-        flags = [i.option for i in infos]
-    else:
-        cls = getattr(obj, "Options", None)
-        infos = describe(cls) if cls is not None else []
-        flags = [f"--{obj.name}-{i.name.replace('_', '-')}" for i in infos]
-    return flags + ["--no-" + f[2:] for f, i in zip(flags, infos, strict=True)
-                    if i.type is bool]
+    cls = obj.Params if kind == "job-kind" else getattr(obj, "Options", None)
+    if cls is None:
+        return []
+    hints = typing.get_type_hints(cls)
+    flags = []
+    for f in dataclasses.fields(cls):
+        flag = (field_flag(f.name, f.metadata.get("flag")) if kind == "job-kind"
+                else option_flag(obj.name, f.name))
+        flags.append(flag)
+        if hints.get(f.name) in (bool, typing.Optional[bool]):  # noqa: UP045
+            flags.append("--no-" + flag[2:])
+    return flags
 
 
 def _what(kind: str) -> str:

@@ -306,6 +306,17 @@ def check_plugin_object(kind: str, obj: Any) -> str | None:
     return None
 
 
+def field_flag(name: str, flag: str | None = None) -> str:
+    """The command-line flag of a settings field ``name`` (a job kind's parameter), e.g.
+    ``--lambda-smooth``, or its declared ``flag``."""
+    return flag or "--" + name.replace("_", "-")
+
+
+def option_flag(plugin: str, option: str) -> str:
+    """The command-line flag of a plugin's option, named after both: ``--dce-relevance``."""
+    return f"--{plugin}-{option.replace('_', '-')}"
+
+
 def _call_problem(protocol: type, member: str, obj: Any) -> str | None:
     """Why ``obj``'s method ``member`` cannot take the arguments inkmotion calls it with
     (the protocol's: its positional ones, each keyword-only one by name, and where the
