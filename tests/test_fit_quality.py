@@ -130,3 +130,18 @@ def test_overlaps_left_on_their_bound_are_named_with_what_to_try(tmp_path: Path)
     assert "--targets 1." in warnings[0] and "--refine 0" not in warnings[0]
     report, res = _fit(line, tmp_path / "one", "--targets", "1", "--steps", "150")
     assert report["pinned_overlaps"] == [] and "warning:" not in res.stderr
+
+
+def test_a_drawing_too_small_for_its_pen_says_which_size_gives_it_room(tmp_path: Path) -> None:
+    """A long line of text at 350 px is a few px tall under a 3-px pen: the fit follows it
+    (rated good) but its letters merge. It says so and names a --size; a thin drawing whose
+    strokes stay apart (a dashed line) says nothing."""
+    line = "text:" + " ".join(["the quick brown fox jumps over the lazy dog"] * 3)
+    report, res = _fit(line, tmp_path / "line", "--steps", "20")
+    (said,) = [w for w in report["warnings"] if "shorter side" in w]
+    assert "strokes merge and it is hard to read" in said and "give --size 2000" in said
+    dashes = tmp_path / "dashes.svg"
+    dashes.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 300 10"><path '
+                      'd="M0 5 L40 5 M60 5 L100 5 M120 5 L160 6" stroke="black"/></svg>')
+    report, _ = _fit(dashes, tmp_path / "dashes", "--steps", "20")
+    assert not any("shorter side" in w for w in report.get("warnings", []))

@@ -243,7 +243,9 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
             f"{flag} applies to a picture input only; {source} is not one, so it has no "
             "effect." for flag, on in (("--invert", p.invert),
                                        ("--varying-width", p.varying_width)) if on]
-        notes = said + unused + _ignored_options(p) + ([asked] if asked else [])
+        small = _small_detail(traces, target, width, p.size, source)
+        notes = (said + unused + _ignored_options(p) + ([asked] if asked else [])
+                 + ([small] if small else []))
         if notes:
             report["warnings"] = [*notes, *report.get("warnings", [])]
         return report
@@ -318,6 +320,41 @@ def _check_pen(traces: Any, width: float, source: str) -> None:
                      f"fill the canvas its pen would be {width:.0f} px, over a fifth of the "
                      "canvas, so there are no lines to draw; give a picture whose lines are "
                      "longer than they are wide.")
+
+
+#: a drawing whose shorter side on the canvas spans fewer pen widths than this, and whose
+#: strokes overlap (below :data:`MERGED_INK`), is drawn too small for its pen (a long line
+#: of text at 350 px); the size suggested then gives it twice as many
+DETAIL_PENS = 5.0
+#: ink area over (stroke length × pen width) below which strokes overlap: 1 for strokes
+#: apart, about 0.55 for a line of 176 characters at 350 px (0.77 for 43, readable)
+MERGED_INK = 0.7
+
+
+def _small_detail(traces: Any, target: Any, width: float, size: int, source: str
+                  ) -> str | None:
+    """A warning when the drawing's shorter side on the canvas spans fewer than
+    :data:`DETAIL_PENS` pen widths and its ink ``target`` (H, W) covers less than
+    :data:`MERGED_INK` of its strokes' length × the pen (the strokes merge, so a fit that
+    follows the input closely is still unreadable), with the ``--size`` that gives it
+    twice the pens; None otherwise (a straight line, a dashed one, is thin and apart)."""
+    import math
+
+    import numpy as np
+
+    points = np.concatenate([s[:, :2] for s in traces.strokes])
+    extent = float(np.ptp(points, axis=0).min())
+    if extent >= DETAIL_PENS * width:
+        return None
+    length = sum(float(np.linalg.norm(np.diff(s[:, :2], axis=0), axis=1).sum())
+                 for s in traces.strokes)
+    if float(target.sum()) >= MERGED_INK * length * width:
+        return None
+    larger = int(math.ceil(size * 2 * DETAIL_PENS * width / max(extent, 1e-9) / 50) * 50)
+    return (f"{source}: the drawing is {extent:.0f} px across its shorter side on this "
+            f"{size}-px canvas, under {DETAIL_PENS:g} widths of the {width:.1f}-px pen, so its "
+            f"strokes merge and it is hard to read even where the fit follows it (a long "
+            f"line of text); give --size {larger}, or split the drawing.")
 
 
 def widened(ink: Any, by: float) -> Any:
