@@ -436,3 +436,33 @@ def test_unknown_form_lists_supported_forms(tmp_path):
         assert message.startswith(source)
         for name in ("gml", "svg", "text"):
             assert name in message
+
+
+def test_svg_symbols_are_drawn_where_used_and_sized_as_used(tmp_path: Path):
+    """A <symbol> was drawn where it was defined (an unused one too) and at its own size
+    whatever the <use> asked; a <line> with no stroke (invisible) was drawn."""
+    f = tmp_path / "symbols.svg"
+    f.write_text('<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/'
+                 'xlink" viewBox="0 0 300 120"><symbol id="s" viewBox="0 0 60 100"><path '
+                 'd="M0 0 V100" stroke="black"/></symbol><symbol id="unused" viewBox="0 0 10 10">'
+                 '<circle cx="5" cy="5" r="4" stroke="black"/></symbol>'
+                 '<use xlink:href="#s" x="0" y="0" width="30" height="50"/>'
+                 '<use href="#s" x="100" y="0" width="120" height="100"/>'
+                 '<line x1="0" y1="110" x2="150" y2="110"/></svg>')
+    t = read_svg(str(f))
+    assert len(t.strokes) == 2
+    np.testing.assert_allclose(t.strokes[0], [[0, 0], [0, 50]])  # half size
+    np.testing.assert_allclose(t.strokes[1], [[130, 0], [130, 100]])  # centred, meet
+
+
+def test_svg_percentages_are_shares_of_the_right_side(tmp_path: Path):
+    """svgelements took x="10%" of the height and y="10%" of the width (a circle at
+    cx="50%" cy="50%" of a 400 × 200 page landed at (100, 200), off the page)."""
+    f = tmp_path / "percent.svg"
+    f.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="400" height="200">'
+                 '<rect x="10%" y="10%" width="50%" height="25%" fill="none" stroke="black"/>'
+                 '<line x1="0" y1="50%" x2="100%" y2="50%" stroke="black"/></svg>')
+    rect, line = read_svg(str(f)).strokes
+    np.testing.assert_allclose(rect.min(0), [40, 20])
+    np.testing.assert_allclose(rect.max(0), [240, 70])
+    np.testing.assert_allclose(line, [[0, 100], [400, 100]])

@@ -20,6 +20,7 @@ Coordinates are SVG user units, y down.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -68,7 +69,7 @@ def read_svg(source: str) -> Traces:
             and (el.stroke is None or el.stroke.value is None) for el in shapes)
         texts = sum(isinstance(el, se.Text) for el in shown)  # text that is still text
         images = sum(isinstance(el, se.Image) for el in shown)  # embedded pictures
-    if not strokes and not hidden and _any_hidden_shape(path, source):
+    if not strokes and not hidden and _any_hidden_shape(path, source, shown):
         raise InputError(
             f"{source}: every shape of the SVG is hidden (display: none or visibility: "
             "hidden, a hidden layer), so there is nothing to draw; show the layer with the "
@@ -79,6 +80,11 @@ def read_svg(source: str) -> Traces:
             f"{source}: every shape of the SVG is invisible (no stroke or fill, or an "
             "opacity of 0), so there is nothing to draw; give the lines to draw a stroke "
             "colour."
+        )
+    if not strokes and any(isinstance(el, se.Shape) for el in shown):
+        raise InputError(
+            f"{source}: the SVG's paths and shapes draw nothing (a moveto alone, a shape "
+            "of zero size), so there is nothing to draw; check that it holds the drawing."
         )
     if not strokes:
         raise InputError(
@@ -119,14 +125,102 @@ def _document(path: Any, source: str) -> Any:
 
     with open(path, "rb") as f:
         compressed = f.read(2) == b"\x1f\x8b"
-    if not compressed:
-        return str(path)
-    with gzip.open(path, "rb") as f:
-        data = f.read(MAX_FILE_BYTES + 1)
-    if len(data) > MAX_FILE_BYTES:
-        raise InputError(f"{source}: unpacked, the SVG is more than the "
-                         f"{MAX_FILE_BYTES // 2**20} MB limit; simplify the drawing or split it.")
-    return io.BytesIO(data)
+    if compressed:
+        with gzip.open(path, "rb") as f:
+            data = f.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise InputError(f"{source}: unpacked, the SVG is more than the "
+                             f"{MAX_FILE_BYTES // 2**20} MB limit; simplify the drawing or "
+                             f"split it.")
+    else:
+        data = Path(path).read_bytes()
+    if b"<symbol" not in data and b'%"' not in data and b"%'" not in data:
+        return io.BytesIO(data) if compressed else str(path)
+    return io.BytesIO(_as_svg_means(data))
+
+
+#: a shape's length attributes that are shares of the viewport's width, and of its height
+_ACROSS = ("x", "cx", "rx", "x1", "x2", "width")
+_DOWN = ("y", "cy", "ry", "y1", "y2", "height")
+
+
+def _as_svg_means(data: bytes) -> bytes:
+    """The SVG ``data`` with what svgelements (1.9) reads otherwise made explicit: a
+    percentage length of a shape as user units of the root viewport (it takes a share of
+    the height for x and of the width for y); a ``<symbol>`` drawn only where a ``<use>``
+    places it (moved into ``<defs>``), and a ``<use>`` with a width and height fitting the
+    symbol's ``viewBox`` into them (preserveAspectRatio's default, xMidYMid meet), as a
+    transform."""
+    import xml.etree.ElementTree as ET
+
+    svg_ns, xlink = "http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"
+    ET.register_namespace("", svg_ns)
+    ET.register_namespace("xlink", xlink)
+    root = ET.fromstring(data)
+    _resolve_percentages(root)
+    symbols = {}
+    for parent in root.iter():
+        for child in list(parent):
+            if child.tag in (f"{{{svg_ns}}}symbol", "symbol"):
+                symbols[child.get("id")] = child
+                if parent.tag not in (f"{{{svg_ns}}}defs", "defs"):
+                    parent.remove(child)
+                    defs = ET.SubElement(root, f"{{{svg_ns}}}defs")
+                    defs.append(child)
+    for use in root.iter(f"{{{svg_ns}}}use"):
+        ref = (use.get(f"{{{xlink}}}href") or use.get("href") or "").lstrip("#")
+        symbol = symbols.get(ref)
+        box = symbol.get("viewBox") if symbol is not None else None
+        if box is None or use.get("width") is None or use.get("height") is None:
+            continue
+        try:
+            bx, by, bw, bh = (float(v) for v in box.replace(",", " ").split())
+            w, h = float(use.get("width", "")), float(use.get("height", ""))
+            x, y = float(use.get("x", "0")), float(use.get("y", "0"))
+        except ValueError:  # units or percentages: left as they are
+            continue
+        if bw <= 0 or bh <= 0:
+            continue
+        k = min(w / bw, h / bh)
+        dx, dy = x + (w - bw * k) / 2 - bx * k, y + (h - bh * k) / 2 - by * k
+        use.set("transform", f"{use.get('transform', '')} translate({dx:g} {dy:g}) "
+                             f"scale({k:g})".strip())
+        for name in ("x", "y", "width", "height"):
+            use.attrib.pop(name, None)
+    return ET.tostring(root)
+
+
+def _resolve_percentages(root: Any) -> None:
+    """Percentage lengths of the shapes under ``root`` (an ``<svg>`` element) as numbers:
+    shares of its viewBox's width (x-like) or height (y-like), or of their diagonal over
+    √2 (``r``); without a numeric viewBox, width and height, left as they are."""
+    import math
+
+    box = (root.get("viewBox") or "").replace(",", " ").split()
+    try:
+        w, h = (float(box[2]), float(box[3])) if len(box) == 4 else (
+            float(root.get("width", "")), float(root.get("height", "")))
+    except ValueError:
+        return
+    for el in root.iter():
+        for name, value in list(el.attrib.items()):
+            if not value.strip().endswith("%") or el is root:
+                continue
+            share = float(value.strip()[:-1]) / 100 if _is_number(value.strip()[:-1]) else None
+            if share is None:
+                continue
+            whole = (w if name in _ACROSS else h if name in _DOWN
+                     else math.hypot(w, h) / math.sqrt(2) if name == "r" else None)
+            if whole is not None:
+                el.set(name, f"{share * whole:g}")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _bad_path_data(exc: BaseException, se: Any) -> str | None:
@@ -142,13 +236,14 @@ def _bad_path_data(exc: BaseException, se: Any) -> str | None:
     return None
 
 
-def _any_hidden_shape(path: Any, source: str) -> bool:
-    """Whether the SVG holds a shape that is not displayed (parsed again, with what
+def _any_hidden_shape(path: Any, source: str, shown: list[Any]) -> bool:
+    """Whether the SVG holds more shapes than the ``shown`` ones (parsed again, with what
     ``display: none`` hides)."""
     import svgelements as se
 
-    return any(isinstance(el, se.Shape) for el in
-               se.SVG.parse(_document(path, source), parse_display_none=True).elements())
+    every = se.SVG.parse(_document(path, source), parse_display_none=True).elements()
+    return sum(isinstance(el, se.Shape) for el in every) > sum(
+        isinstance(el, se.Shape) for el in shown)
 
 
 def _shown(svg: Any) -> list[Any]:
@@ -215,7 +310,8 @@ def _painted(shape: Any) -> bool:
             return False
     except (TypeError, ValueError):
         pass  # an opacity that is not a number: as if it were not given
-    return _stroked(shape) or _filled(shape)
+    # a line has no area: its fill (black by default) paints nothing
+    return _stroked(shape) or (_filled(shape) and type(shape).__name__ != "SimpleLine")
 
 
 def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
@@ -259,7 +355,7 @@ def _path_strokes(path: Any, se: Any, tol: float) -> list[np.ndarray]:
     start: np.ndarray | None = None
 
     def finish() -> None:
-        if current:
+        if len(current) > 1:  # a moveto alone draws nothing; a zero-length segment, a dot
             strokes.append(np.vstack(current))
 
     for seg in path:
