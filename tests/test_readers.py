@@ -466,3 +466,15 @@ def test_svg_percentages_are_shares_of_the_right_side(tmp_path: Path):
     np.testing.assert_allclose(rect.min(0), [40, 20])
     np.testing.assert_allclose(rect.max(0), [240, 70])
     np.testing.assert_allclose(line, [[0, 100], [400, 100]])
+
+
+def test_a_gml_tag_without_a_header_is_on_the_screen_of_the_tag_before_it(tmp_path: Path):
+    """A second <tag> with no header was read at scale 1 (its points in 0..1) beside a first
+    tag scaled to its 1024 × 768 screen: it shrank to a dot."""
+    g = tmp_path / "two.gml"
+    stroke = ("<stroke><pt><x>0.1</x><y>0.1</y></pt><pt><x>0.5</x><y>0.1</y></pt></stroke>")
+    g.write_text("<gml><tag><header><environment><screenBounds><x>1000</x><y>500</y>"
+                 f"</screenBounds></environment></header><drawing>{stroke}</drawing></tag>"
+                 f"<tag><drawing>{stroke}</drawing></tag></gml>")
+    first, second = read_gml(str(g)).strokes
+    np.testing.assert_allclose(second, first)

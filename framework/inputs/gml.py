@@ -75,6 +75,7 @@ class _Tag:
         self.bounds: tuple[float, float] = (1.0, 1.0)
         self.up: tuple[float, float] = (0.0, -1.0)
         self.strokes: list[_Stroke] = []
+        self.own_bounds = self.own_up = False  # given in this tag's environment
 
 
 def read_gml(source: str) -> Traces:
@@ -155,9 +156,11 @@ def _tag(node: _Node, source: str) -> _Tag:
     bounds = env.child("screenBounds") if env else None
     if bounds is not None:
         tag.bounds = _bounds(bounds.number("x", source), bounds.number("y", source))
+        tag.own_bounds = True
     up = env.child("up") if env else None
     if up is not None:
         tag.up = _up(up.number("x", source), up.number("y", source))
+        tag.own_up = True
     for drawing in node.children("drawing"):
         for stroke in drawing.children("stroke"):
             if _is_drawing(stroke.attr("isDrawing")):
@@ -196,6 +199,18 @@ def _parse_xml(text: str, source: str) -> list[_Tag]:
     tags = [_tag(node, source) for node in _Node(root).children("tag")]
     if not tags:
         raise InputError(f"{source}: the GML has no <tag> element, so there is nothing to draw.")
+    return _one_screen(tags)
+
+
+def _one_screen(tags: list[_Tag]) -> list[_Tag]:
+    """``tags`` where a tag with no screen bounds or up vector of its own takes those of the
+    tag before it: the later tags of a file were recorded on the same screen (read at scale
+    1, a second tag without a header shrank to a dot beside the first)."""
+    for before, tag in zip(tags[:-1], tags[1:], strict=True):
+        if not tag.own_bounds:
+            tag.bounds, tag.own_bounds = before.bounds, before.own_bounds
+        if not tag.own_up:
+            tag.up, tag.own_up = before.up, before.own_up
     return tags
 
 
@@ -233,7 +248,7 @@ def _parse_json(text: str, source: str) -> list[_Tag]:
     tags = [_tag(_json_tag(node, source), source) for node in _Node(gml).children("tag")]
     if not tags:
         raise InputError(f"{source}: the GML has no tag, so there is nothing to draw.")
-    return tags
+    return _one_screen(tags)
 
 
 def _json_tag(node: _Node, source: str) -> _Node:
