@@ -143,6 +143,8 @@ class CheckedLoss:
         self.name, self.loss = name, loss
 
     def __getattr__(self, name: str) -> Any:  # the loss's own members (e.g. ``stack``)
+        if name in ("name", "loss"):  # not set yet (a copy being made): no recursion
+            raise AttributeError(name)
         return getattr(self.loss, name)
 
     def __call__(self, rendered: torch.Tensor) -> torch.Tensor:
