@@ -478,3 +478,17 @@ def test_a_gml_tag_without_a_header_is_on_the_screen_of_the_tag_before_it(tmp_pa
                  f"<tag><drawing>{stroke}</drawing></tag></gml>")
     first, second = read_gml(str(g)).strokes
     np.testing.assert_allclose(second, first)
+
+
+def test_svg_css_rules_that_nest_apply(tmp_path: Path):
+    """`.sketch path {display:none}` hid nothing (svgelements applies only rules of one
+    compound selector): the sketch layer was drawn. Nested rules (descendant and child)
+    now apply; an element's own style still wins."""
+    f = tmp_path / "css.svg"
+    f.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 200 120"><style>'
+                 '/* layers */ .sketch path{display:none} g.ink > path{fill:none;stroke:black}'
+                 '</style><g class="ink"><path d="M0 0 V100"/><path d="M5 0 V100" '
+                 'style="stroke:none"/></g><g class="sketch"><g><path d="M100 0 L160 100" '
+                 'stroke="black"/></g></g></svg>')
+    (stroke,) = read_svg(str(f)).strokes
+    np.testing.assert_allclose(stroke, [[0, 0], [0, 100]])

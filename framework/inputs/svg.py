@@ -20,6 +20,7 @@ Coordinates are SVG user units, y down.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -134,7 +135,8 @@ def _document(path: Any, source: str) -> Any:
                              f"split it.")
     else:
         data = Path(path).read_bytes()
-    if b"<symbol" not in data and b'%"' not in data and b"%'" not in data:
+    if (b"<symbol" not in data and b'%"' not in data and b"%'" not in data
+            and b"<style" not in data):
         return io.BytesIO(data) if compressed else str(path)
     return io.BytesIO(_as_svg_means(data))
 
@@ -147,7 +149,8 @@ _DOWN = ("y", "cy", "ry", "y1", "y2", "height")
 def _as_svg_means(data: bytes) -> bytes:
     """The SVG ``data`` with what svgelements (1.9) reads otherwise made explicit: a
     percentage length of a shape as user units of the root viewport (it takes a share of
-    the height for x and of the width for y); a ``<symbol>`` drawn only where a ``<use>``
+    the height for x and of the width for y); CSS rules whose selectors nest
+    (:func:`_apply_nested_css`); a ``<symbol>`` drawn only where a ``<use>``
     places it (moved into ``<defs>``), and a ``<use>`` with a width and height fitting the
     symbol's ``viewBox`` into them (preserveAspectRatio's default, xMidYMid meet), as a
     transform."""
@@ -157,7 +160,7 @@ def _as_svg_means(data: bytes) -> bytes:
     ET.register_namespace("", svg_ns)
     ET.register_namespace("xlink", xlink)
     root = ET.fromstring(data)
-    _resolve_percentages(root)
+    changed = _resolve_percentages(root) | _apply_nested_css(root)
     symbols = {}
     for parent in root.iter():
         for child in list(parent):
@@ -187,13 +190,75 @@ def _as_svg_means(data: bytes) -> bytes:
                              f"scale({k:g})".strip())
         for name in ("x", "y", "width", "height"):
             use.attrib.pop(name, None)
-    return ET.tostring(root)
+    # unchanged, the file as it was (written again, it would lose comments and CDATA)
+    return ET.tostring(root) if changed or symbols else data
 
 
-def _resolve_percentages(root: Any) -> None:
+#: one compound selector of a CSS rule: a tag, classes and an id, each optional
+_COMPOUND = re.compile(r"^(?P<tag>[A-Za-z][\w-]*|\*)?(?P<rest>(?:[.#][\w-]+)*)$")
+
+
+def _apply_nested_css(root: Any) -> bool:
+    """The declarations of the ``<style>`` rules whose selectors nest (``.sketch path``,
+    ``g.ink > path``: svgelements applies only rules of one compound selector) written
+    into the style of the elements they select, before the element's own (which wins, as
+    CSS has it). Selectors of other forms (attributes, pseudo-classes) are left alone.
+    Whether any element was given a declaration."""
+    local = lambda tag: str(tag).rsplit("}", 1)[-1]  # noqa: E731
+    sheets = " ".join(el.text or "" for el in root.iter() if local(el.tag) == "style")
+    rules = re.findall(r"([^{}]+)\{([^{}]*)\}", re.sub(r"/\*.*?\*/", "", sheets, flags=re.S))
+    parents = {child: parent for parent in root.iter() for child in parent}
+    changed = False
+
+    def matches(el: Any, compound: str) -> bool:
+        found = _COMPOUND.match(compound)
+        if found is None:
+            return False
+        tag, rest = found.group("tag"), found.group("rest")
+        classes = set((el.get("class") or "").split())
+        return ((tag in (None, "*") or local(el.tag) == tag)
+                and all(c[1:] in classes if c[0] == "." else el.get("id") == c[1:]
+                        for c in re.findall(r"[.#][\w-]+", rest)))
+
+    def selects(el: Any, parts: list[str]) -> bool:
+        if not matches(el, parts[-1]):
+            return False
+        if len(parts) == 1:
+            return True
+        combinator, rest = parts[-2], parts[:-2]
+        up = parents.get(el)
+        if combinator == ">":
+            return up is not None and selects(up, rest)
+        while up is not None:
+            if selects(up, rest):
+                return True
+            up = parents.get(up)
+        return False
+
+    for selectors, body in rules:
+        declarations = body.strip().rstrip(";")
+        for selector in selectors.split(","):
+            tokens = re.sub(r"\s*>\s*", " > ", selector.strip()).split()
+            if len(tokens) < 2 or not declarations:
+                continue  # one compound: svgelements applies it
+            chain: list[str] = []  # compounds with their combinators, " " or ">", between
+            for t in tokens:
+                if t != ">" and chain and chain[-1] != ">":
+                    chain.append(" ")
+                chain.append(t)
+            for el in root.iter():
+                if selects(el, chain):
+                    own = el.get("style", "")
+                    el.set("style", f"{declarations};{own}" if own else declarations)
+                    changed = True
+    return changed
+
+
+def _resolve_percentages(root: Any) -> bool:
     """Percentage lengths of the shapes under ``root`` (an ``<svg>`` element) as numbers:
     shares of its viewBox's width (x-like) or height (y-like), or of their diagonal over
-    √2 (``r``); without a numeric viewBox, width and height, left as they are."""
+    √2 (``r``); without a numeric viewBox, width and height, left as they are. Whether
+    any was."""
     import math
 
     box = (root.get("viewBox") or "").replace(",", " ").split()
@@ -201,7 +266,8 @@ def _resolve_percentages(root: Any) -> None:
         w, h = (float(box[2]), float(box[3])) if len(box) == 4 else (
             float(root.get("width", "")), float(root.get("height", "")))
     except ValueError:
-        return
+        return False
+    changed = False
     for el in root.iter():
         for name, value in list(el.attrib.items()):
             if not value.strip().endswith("%") or el is root:
@@ -213,6 +279,8 @@ def _resolve_percentages(root: Any) -> None:
                      else math.hypot(w, h) / math.sqrt(2) if name == "r" else None)
             if whole is not None:
                 el.set(name, f"{share * whole:g}")
+                changed = True
+    return changed
 
 
 def _is_number(text: str) -> bool:
