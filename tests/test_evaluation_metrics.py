@@ -241,6 +241,8 @@ def test_time_stamps_that_do_not_advance_give_no_recorded_speed(tmp_path):
     assert not backwards["has_times"]
     one = agreement("one.gml", [[0.0] * 60, list(np.linspace(1.2, 2.4, 60))])
     assert one["has_times"] and one["strokes_paired"] == 1 and one["strokes_untimed"] == 1
+    assert "1 of its 2 strokes have time stamps that do not advance" in one["note"]
+    assert "note" not in agreement("both.gml", [list(np.linspace(0, 1, 60))] * 2)
 
 
 @pytest.mark.skipif(not GML.is_dir(), reason="the shared tag folder is absent")

@@ -289,6 +289,11 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
                 f"(on its {size:g}-px canvas; a fit's lie within a pixel or two): it does not "
                 "look like the drawing the plan was fitted to, so the speed agreement says "
                 "little; give the recording the plan was fitted to"}
+    untimed = len(paired) - len(kept)
+    left_out = {} if mismatch or not untimed else {
+        "note": f"{source}: {untimed} of its {len(paired)} strokes have time stamps that do "
+                "not advance (all the same, or running backwards), so they are left out of "
+                "the speed comparison"}
     return {"has_times": True, "time_unit": unit, "strokes_paired": len(kept),
-            "strokes_untimed": len(paired) - len(kept), "apart_px": apart,
-            "plot": Path(png).name, **result, **mismatch}
+            "strokes_untimed": untimed, "apart_px": apart,
+            "plot": Path(png).name, **result, **mismatch, **left_out}
