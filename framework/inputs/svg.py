@@ -119,7 +119,7 @@ def read_svg(source: str) -> Traces:
 
 
 def _document(path: Any, source: str) -> Any:
-    """What to parse: the file's path, or its text unpacked when it is gzip-compressed (an
+    """What to parse: the file's bytes, unpacked when they are gzip-compressed (an
     ``.svgz``, as Inkscape saves it, or such data under another name)."""
     import gzip
     import io
@@ -137,7 +137,7 @@ def _document(path: Any, source: str) -> Any:
         data = Path(path).read_bytes()
     if (b"<symbol" not in data and b'%"' not in data and b"%'" not in data
             and b"<style" not in data):
-        return io.BytesIO(data) if compressed else str(path)
+        return io.BytesIO(data)  # read once: svgelements parses these bytes
     return io.BytesIO(_as_svg_means(data))
 
 

@@ -168,7 +168,7 @@ def plugin_packages(spec: JobSpec) -> dict[str, str]:
     from inkmotion.jobs.kind import job_kind
     from inkmotion.jobs.params import describe
     from inkmotion.plugin_host import host
-    from inkmotion.plugin_host.manager import is_built_in
+    from inkmotion.plugin_host.manager import distribution, is_built_in
 
     kind = job_kind(spec.kind)
     used = [kind]
@@ -183,7 +183,7 @@ def plugin_packages(spec: JobSpec) -> dict[str, str]:
     for obj in used:
         if is_built_in(obj):
             continue
-        dist = str(getattr(obj, "_inkmotion_origin", "local")).split(" (")[0]
+        dist = distribution(obj)
         try:
             out[dist] = version(dist)
         except (PackageNotFoundError, ValueError):

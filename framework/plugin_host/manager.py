@@ -63,7 +63,8 @@ class PluginHost:
         self._objects: dict[str, dict[str, Any]] = {kind: {} for kind in KIND_HOOKS}
         self._origins: dict[tuple[str, str], str] = {}  # (kind, name) -> origin
         self.disabled: list[PluginInfo] = []  # blocked by DISABLE_ENV, never imported
-        self._flags: dict[str, str] = {}  # command-line flag -> who declares it
+        #: command-line flag -> the kind and the words naming who declares it
+        self._flags: dict[str, tuple[str, str]] = {}
 
     def load_entry_points(self, group: str = ENTRY_POINT_GROUP) -> None:
         """Import and register every module of the entry-point group.
@@ -123,7 +124,7 @@ class PluginHost:
             raise PluginError(f"Plugin {label!r} from {origin}: {first}.") from exc
         try:
             self.pm.check_pending()
-            found = self._collect(module, label, origin)
+            found, flags = self._collect(module, label, origin)
         except pluggy.PluginValidationError as exc:
             self.pm.unregister(module)
             raise PluginError(f"Plugin {label!r} from {origin} implements a hook that does "
@@ -135,12 +136,13 @@ class PluginHost:
             obj._inkmotion_origin = origin
             self._objects[kind][obj.name] = obj
             self._origins[(kind, obj.name)] = origin
-            for flag in command_flags(kind, obj):
-                self._flags.setdefault(flag, f"the {_what(kind)} {obj.name!r} from {origin}")
+        self._flags.update(flags)
 
-    def _collect(self, module: Any, label: str, origin: str) -> list[tuple[str, Any]]:
-        """The (kind, object) pairs ``module``'s hooks provide, each checked; raises
-        :class:`PluginError` on the first problem, before anything is kept."""
+    def _collect(self, module: Any, label: str, origin: str
+                 ) -> tuple[list[tuple[str, Any]], dict[str, tuple[str, str]]]:
+        """The (kind, object) pairs ``module``'s hooks provide, each checked, and the flags
+        they add (:attr:`_flags`'s form); raises :class:`PluginError` on the first
+        problem, before anything is kept."""
         found: list[tuple[str, Any]] = []
         seen: set[tuple[str, str]] = set()
         for kind, hook_name in KIND_HOOKS.items():
@@ -169,19 +171,19 @@ class PluginHost:
                             f"one from {origin}; uninstall or rename one of them.")
                     seen.add(key)
                     found.append((kind, obj))
-        claimed = dict(self._flags)
+        added: dict[str, tuple[str, str]] = {}
         for kind, obj in found:
             who = f"the {_what(kind)} {obj.name!r} from {origin}"
             for flag in command_flags(kind, obj):
-                owner = claimed.get(flag)
+                owner_kind, owner = added.get(flag) or self._flags.get(flag) or (None, "")
                 # job kinds share flags (each is its own command), nobody else does
-                if owner is not None and not (kind == "job-kind" and owner.startswith(
-                        "the job kind ")):
+                if owner_kind is not None and not (kind == owner_kind == "job-kind"):
                     raise PluginError(
                         f"Plugin {label!r} from {origin}: {who} would take the flag {flag}, "
                         f"which {owner} already has; rename the option or the plugin.")
-                claimed.setdefault(flag, who)
-        return found
+                if owner_kind is None:
+                    added[flag] = (kind, who)
+        return found, added
 
     def plugins(self, kind: str) -> dict[str, Any]:
         """All plugin objects of ``kind``, by name."""
@@ -227,9 +229,15 @@ class PluginHost:
         return rows + self.broken + self.disabled
 
 
+def distribution(obj: Any) -> str:
+    """The distribution a registered plugin object came from (its origin's first word:
+    "inkmotion" for a built-in), "local" for one registered by hand."""
+    return str(getattr(obj, "_inkmotion_origin", "local")).split(" (")[0]
+
+
 def is_built_in(obj: Any) -> bool:
     """Whether plugin object ``obj`` came with inkmotion itself (its entry points)."""
-    return str(getattr(obj, "_inkmotion_origin", "")).startswith(f"{BUILT_IN} (")
+    return distribution(obj) == BUILT_IN
 
 
 def plugin_at_fault(exc: BaseException) -> str | None:
