@@ -158,6 +158,39 @@ def test_staging_dir_exception_keeps_existing(tmp_path: Path) -> None:
     assert (final / "keep.txt").read_text() == "keep"
 
 
+def test_a_killed_jobs_staging_folder_is_removed_by_the_next_job(tmp_path: Path) -> None:
+    """A process killed outright leaves its DIR.partial-* folder; the next job writing to
+    DIR removes it, and leaves a running process's and another host's alone."""
+    import subprocess
+    import sys
+
+    final = tmp_path / "job"
+    killed = subprocess.run(
+        [sys.executable, "-c",
+         "import os, signal, sys\n"
+         "from inkmotion.outputs import StagingDir\n"
+         "with StagingDir(sys.argv[1]) as stage:\n"
+         "    (stage.path / 'half.txt').write_text('x')\n"
+         "    os.kill(os.getpid(), signal.SIGKILL)\n", str(final)], check=False)
+    assert killed.returncode == -9
+    (left,) = tmp_path.glob("job.partial-*")
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        host = left.name.split("-")[1]
+        running = tmp_path / f"job.partial-{host}-{sleeper.pid}-0000"
+        elsewhere = tmp_path / "job.partial-otherhost-1-0000"
+        running.mkdir()
+        elsewhere.mkdir()
+        with StagingDir(final) as stage:
+            (stage.path / "new.txt").write_text("new")
+        assert not left.exists()
+        assert running.exists() and elsewhere.exists()
+        assert sorted(p.name for p in final.iterdir()) == ["new.txt"]
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+
+
 def test_plots_leave_the_processs_matplotlib_as_it_was(tmp_path: Path) -> None:
     """Every plot the jobs write draws on a figure of its own: the backend a notebook or
     a worker chose stays, and no pyplot figure is left open."""

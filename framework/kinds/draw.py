@@ -131,7 +131,7 @@ def _stopped(job: Job, program: RobotProgram, execution: Execution, report: dict
 
 
 def _final_folder(staging: Path) -> Path:
-    """The job's final folder from its staging folder ``DIR.partial-<random>``."""
+    """The job's final folder from its staging folder ``DIR.partial-<owner>-<random>``."""
     name = staging.name
     cut = name.rfind(".partial-")
     return staging.with_name(name[:cut] if cut > 0 else name)

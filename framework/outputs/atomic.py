@@ -7,19 +7,58 @@ existing ``DIR`` is two renames (``DIR -> DIR.old-<random>``, staging ``-> DIR``
 removal of the old copy; POSIX has no portable exchange of two directories, so between
 the renames ``DIR`` is briefly absent (never partial). On an exception inside the
 ``with`` block the staging directory is removed and ``DIR`` is left untouched.
+
+A process killed outright (SIGKILL, a machine's power) cannot clean up: its staging
+folder is named after its host and process (``DIR.partial-<host>-<pid>-<random>``), and
+the next job writing to ``DIR`` removes the ones whose process is gone from this host.
 """
 
 from __future__ import annotations
 
+import glob
 import os
+import re
 import secrets
 import shutil
+import socket
 from pathlib import Path
 from types import TracebackType
 
 
 def _sibling(final: Path, tag: str) -> Path:
     return final.with_name(f"{final.name}.{tag}-{secrets.token_hex(4)}")
+
+
+def _owner_tag() -> str:
+    """``<host>-<pid>`` of this process, the host's name without dashes or dots."""
+    host = re.sub(r"[^A-Za-z0-9]", "", socket.gethostname()) or "host"
+    return f"{host}-{os.getpid()}"
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists on this host (one we may not signal counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
+
+
+def remove_stale_staging(final: Path) -> list[Path]:
+    """Remove the staging folders ``FINAL.partial-<host>-<pid>-<random>`` of processes of
+    this host that no longer run (killed before they could clean up); return them.
+    Another host's, a running process's and an unnamed owner's are left alone."""
+    host, _ = _owner_tag().rsplit("-", 1)
+    removed = []
+    for folder in final.parent.glob(f"{glob.escape(final.name)}.partial-*"):
+        owner = folder.name[len(final.name) + len(".partial-"):].split("-")
+        if (len(owner) == 3 and owner[0] == host and owner[1].isdigit()
+                and int(owner[1]) != os.getpid() and not _alive(int(owner[1]))):
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder)
+    return removed
 
 
 class StagingDir:
@@ -33,7 +72,8 @@ class StagingDir:
 
     def __enter__(self) -> StagingDir:
         self.final.parent.mkdir(parents=True, exist_ok=True)
-        self.path = _sibling(self.final, "partial")
+        remove_stale_staging(self.final)
+        self.path = _sibling(self.final, f"partial-{_owner_tag()}")
         self.path.mkdir()
         return self
 
