@@ -7,12 +7,14 @@ and time stamps are :mod:`inkmotion.inputs.gml`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.gml import read_gml
 from inkmotion.inputs.sources import is_scheme
+from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
@@ -22,11 +24,22 @@ if TYPE_CHECKING:
 SUFFIXES = {".gml", ".json", ".jsonp", ".js"}
 
 
+@dataclass
+class GmlOptions:
+    """Options of the 'gml' reader."""
+
+    time_unit: str = param("auto", "The unit of the time stamps: 's', 'ms' or 'auto' (told "
+                           "apart by the step between successive stamps: under 0.5 in "
+                           "seconds, at least 0.5 in milliseconds).",
+                           choices=("auto", "s", "ms"))
+
+
 class GmlReader:
     """Reads GML tags (XML, 000000book JSON, JSONP) into traces in screen units, y down."""
 
     name = "gml"
     description = "GML graffiti tags: XML (spec 1.0), 000000book JSON and JSONP."
+    Options = GmlOptions
 
     def can_read(self, source: str) -> bool:
         """True for ``.gml``/``.json``/``.jsonp``/``.js`` paths, and ``.xml`` files of GML."""
@@ -44,10 +57,10 @@ class GmlReader:
             return b"<gml" in head
         return False
 
-    def read(self, source: str) -> Traces:
+    def read(self, source: str, time_unit: str = "auto") -> Traces:
         """Parse ``source`` (:func:`inkmotion.inputs.gml.read_gml`); every malformed or
         degenerate input raises :class:`InputError`."""
-        return read_gml(source)
+        return read_gml(source, time_unit)
 
 
 @hookimpl

@@ -87,3 +87,35 @@ def test_msj_at_equal_duration_removes_the_time_scaling() -> None:
     assert r["msj"] == pytest.approx(64.0, rel=1e-6)
     assert r["ldj"] == pytest.approx(1.0, rel=1e-9)
     assert r["msj_equal_duration"] == pytest.approx(1.0, rel=1e-6)
+
+
+def test_a_fit_says_what_its_speed_comparison_left_out_and_the_time_unit(tmp_path: Path
+                                                                          ) -> None:
+    """run fit left a stroke whose clock jumped back 400 ms in its speed comparison (a false
+    plateau) and read a 68-ms dash's milliseconds as seconds (544 s), without a word;
+    evaluate --recording says the same as the fit."""
+    import math
+
+    def stroke(y: float, stamps: list[float]) -> str:
+        return "<stroke>" + "".join(
+            f"<pt><x>{0.1 + 0.8 * i / 59:.4f}</x><y>{y + 0.05 * math.sin(i / 6):.4f}</y>"
+            f"<t>{t}</t></pt>" for i, t in enumerate(stamps)) + "</stroke>"
+
+    steady = [2.0 * i for i in range(60)]
+    jumped = [200.0 + 2.0 * i - (400.0 if i >= 30 else 0.0) for i in range(60)]
+    gml = tmp_path / "jump.gml"
+    gml.write_text(f"<gml><tag><drawing>{stroke(0.3, steady)}{stroke(0.7, jumped)}"
+                   "</drawing></tag></gml>")
+    fit = tmp_path / "fit"
+    res = inkmotion("run", "fit", str(gml), "--out", str(fit), "--steps", "30", "--size",
+                    "160", "--no-record")
+    assert res.returncode == 0, res.stderr
+    said = "the clock runs backwards inside 1 of its 2 strokes (stroke 2; by up to 398 ms)"
+    assert said in res.stderr
+    recorded = json.loads((fit / "report.json").read_text())["recorded"]
+    assert recorded["time_unit"] == "ms"
+    assert recorded["recorded_duration_s"] == pytest.approx(0.118, abs=0.005)  # not 118 s
+    res = inkmotion("evaluate", str(fit / "plan.json"), "--recording", str(gml), "--out",
+                    str(tmp_path / "eval"))
+    assert res.returncode == 0, res.stderr
+    assert said in res.stderr

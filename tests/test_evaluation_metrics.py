@@ -147,10 +147,18 @@ def synthetic_recording(seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_times_in_seconds_detects_milliseconds():
-    ms, unit = H.times_in_seconds([np.array([0.0, 50.0]), np.array([300.0, 450.0])])
-    assert unit == "ms" and ms[1][1] == pytest.approx(0.45)
-    s, unit = H.times_in_seconds([np.array([0.1, 1.2])])
-    assert unit == "s" and s[0][1] == pytest.approx(1.2)
+    """The step between stamps tells the unit where a stroke's duration cannot: a 68-ms
+    dash sampled at 500 Hz in ms, a two-minute spiral at 10 Hz in s."""
+    ms, unit = H.times_in_seconds([np.arange(0.0, 50.0, 5.0), np.arange(300.0, 455.0, 5.0)])
+    assert unit == "ms" and ms[1][-1] == pytest.approx(0.45)
+    dashes, unit = H.times_in_seconds([np.arange(0.0, 70.0, 2.0) + 100.0 * k for k in range(8)])
+    assert unit == "ms" and dashes[0][-1] == pytest.approx(0.068)
+    spiral, unit = H.times_in_seconds([np.arange(0.0, 120.6, 0.1)])
+    assert unit == "s" and spiral[0][-1] == pytest.approx(120.5)
+    s, unit = H.times_in_seconds([np.linspace(0.1, 1.2, 200)])
+    assert unit == "s" and s[0][-1] == pytest.approx(1.2)
+    declared, unit = H.times_in_seconds([np.arange(0.0, 120.6, 0.1)], "ms")
+    assert unit == "ms" and declared[0][-1] == pytest.approx(0.1205)
 
 
 def test_time_anchors_take_the_last_point_of_each_stamp():
@@ -297,8 +305,9 @@ def test_item_figures_of_a_timed_tag(tmp_path):
     plans = [MotorPlan.from_points(dce(s, threshold=20.0), dtype=torch.float64)
              for s in traces.strokes]
     Drawing((traces.width, traces.height), plans).save(tmp_path / "plan.json")
-    human = recorded_agreement(source, Drawing.load(tmp_path / "plan.json"),
-                               tmp_path / "human_speeds.png")
+    human, note = recorded_agreement(source, Drawing.load(tmp_path / "plan.json"),
+                                     tmp_path / "human_speeds.png")
+    assert note is None and human["time_unit"] == "s"
     got = item_figures(tmp_path, human)
     print(got)
     assert got["fit_speed_peaks"] >= len(plans)
@@ -311,6 +320,57 @@ def test_item_figures_of_a_timed_tag(tmp_path):
     assert all(math.isfinite(got[k]) for k in ("minjerk_msj", "minjerk_ldj", "totg_msj",
                                                 "totg_ldj"))
     assert recorded_agreement("text:hi", Drawing.load(tmp_path / "plan.json"),
-                              tmp_path / "unused.png") is None
+                              tmp_path / "unused.png") == (None, None)
     words = item_figures(tmp_path, None, ratios=False)
     assert set(words) == {"fit_speed_peaks"}
+
+
+def test_a_clock_that_runs_back_inside_a_stroke_leaves_it_out_and_says_so(tmp_path):
+    """A clock that jumped back 400 ms mid-stroke drew a false plateau of full speed in
+    human_speeds.png and counted it as a recorded peak, silently; quantised stamps and
+    jitter of a few ms are no jump."""
+    import torch
+
+    from inkmotion.initialisers.dce import dce
+    from inkmotion.kinds.read import read_input
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+
+    wave = [(0.1 + 0.01 * i, 0.5 + 0.1 * math.sin(i / 5)) for i in range(60)]
+    low = [(x, y + 0.3) for x, y in wave]
+    steady = [5.0 * i for i in range(60)]
+    jumped = [5.0 * i - (400.0 if i >= 30 else 0.0) for i in range(60)]
+    jitter = [5.0 * i + (2.0 if i % 2 else -2.0) for i in range(60)]
+
+    def agreement(name: str, stamps: list[list[float]]) -> dict:
+        source = _gml(tmp_path / name, [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
+                                        for st, ts in zip((wave, low), stamps, strict=True)])
+        traces = read_input(source).fit_to_canvas(350)
+        plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
+        drawing = Drawing((traces.width, traces.height), plans)
+        return H.human_agreement_of_traces(read_input(source), drawing,
+                                           tmp_path / f"{name}.png", source)
+
+    got = agreement("jump.gml", [steady, jumped])
+    assert got["time_unit"] == "ms" and got["strokes_paired"] == 1
+    assert got["strokes_clock_back"] == 1
+    assert "clock runs backwards inside 1 of its 2 strokes (stroke 2; by up to 395 ms)" \
+        in got["note"]
+    calm = agreement("jitter.gml", [steady, jitter])
+    assert calm["strokes_paired"] == 2 and "note" not in calm
+
+
+def test_matched_peaks_are_set_against_chance_and_extra_fit_peaks_lower_the_f1():
+    """matched_peaks counted only recorded peaks: a fit with three times the hand's peaks
+    matched them all. The chance level (as many fit peaks at random) and the F1 say so."""
+    arc = np.linspace(0.0, 1.0, 201)
+    rec = np.exp(-((arc - 0.3) / 0.05) ** 2) + np.exp(-((arc - 0.7) / 0.05) ** 2)
+    wiggly = 1.0 + 0.5 * np.cos(2 * np.pi * 6 * arc)  # a peak every 1/6
+    got = H.compare_peaks(arc, rec, arc, wiggly, tolerance=0.1)
+    assert got["matched"] == 2 and got["fit_peaks"] >= 6
+    assert 1.0 < got["by_chance"] <= 2.0
+    assert got["by_chance"] == H.compare_peaks(arc, rec, arc, wiggly, tolerance=0.1)["by_chance"]
+    t = np.linspace(0.0, 1.0, 201)
+    total = H.human_agreement([(np.stack([arc, 0 * arc], 1), t)],
+                              [(np.stack([arc, 0 * arc], 1), wiggly)])["total"]
+    assert total["peaks_f1"] == pytest.approx(2 * total["matched_peaks"]
+                                              / (total["recorded_peaks"] + total["fit_peaks"]))

@@ -492,3 +492,59 @@ def test_svg_css_rules_that_nest_apply(tmp_path: Path):
                  'stroke="black"/></g></g></svg>')
     (stroke,) = read_svg(str(f)).strokes
     np.testing.assert_allclose(stroke, [[0, 0], [0, 100]])
+
+
+def _timed_gml(path: Path, strokes: list[list[tuple[float, float, float | None]]],
+               header: str = "") -> str:
+    """A GML file of ``strokes`` of (x, y, t) points; t None: no <t>."""
+    body = "".join("<stroke>" + "".join(
+        f"<pt><x>{x}</x><y>{y}</y>{'' if t is None else f'<t>{t}</t>'}</pt>"
+        for x, y, t in st) + "</stroke>" for st in strokes)
+    path.write_text(f"<gml><tag>{header}<drawing>{body}</drawing></tag></gml>")
+    return str(path)
+
+
+def test_a_gml_screen_of_negative_size_is_refused_and_half_a_screen_squashes_nothing(
+        tmp_path: Path):
+    """screenBounds y = -600 was read as 1 beside x = 1000: the drawing was squashed to a
+    line and its fit rated good. A negative size is refused; a missing or zero axis leaves
+    both unscaled (one axis scaled alone squashes the drawing)."""
+    square = [[(0.1, 0.1, None), (0.5, 0.1, None), (0.5, 0.5, None), (0.1, 0.5, None)]]
+
+    def bounds(x: str, y: str) -> str:
+        return (f"<header><environment><screenBounds><x>{x}</x><y>{y}</y></screenBounds>"
+                "</environment></header>")
+
+    with pytest.raises(InputError, match="screenBounds y is -600.*cannot be negative"):
+        read_gml(_timed_gml(tmp_path / "neg.gml", square, bounds("1000", "-600")))
+    for name, header in (("zero", bounds("1000", "0")), ("one", bounds("1000", ""))):
+        (stroke,) = read_gml(_timed_gml(tmp_path / f"{name}.gml", square, header)).strokes
+        extent = stroke.max(0) - stroke.min(0)
+        assert extent[0] == pytest.approx(extent[1]), name
+
+
+def test_a_few_points_without_time_stamps_are_filled_in_and_many_drop_the_times(
+        tmp_path: Path):
+    """One point of a thousand without <t> threw all the recording's times away without a
+    word. A few are filled in from their neighbours (and counted); more leave no times,
+    with the count of points that had none."""
+    wave = [(0.1 + 0.001 * i, 0.5 + 0.1 * np.sin(i / 50)) for i in range(400)]
+    stamps: list[float | None] = [0.005 * i for i in range(400)]
+    stamps[200] = None
+    traces = read_gml(_timed_gml(tmp_path / "one.gml", [[(x, y, t) for (x, y), t in
+                                                          zip(wave, stamps, strict=True)]]))
+    assert traces.meta["times_filled"] == 1
+    assert traces.meta["t"][0][200] == pytest.approx(1.0)
+    many = [None if i % 3 == 0 else t for i, t in enumerate(stamps)]
+    traces = read_gml(_timed_gml(tmp_path / "many.gml", [[(x, y, t) for (x, y), t in
+                                                           zip(wave, many, strict=True)]]))
+    assert "t" not in traces.meta and traces.meta["times_missing"] == 135
+
+
+def test_the_gml_readers_time_unit_is_recorded_when_declared(tmp_path: Path):
+    from inkmotion.kinds.read import read_input
+
+    source = _timed_gml(tmp_path / "s.gml", [[(0.1, 0.1, 0.0), (0.5, 0.1, 1.0),
+                                              (0.5, 0.5, 2.0)]])
+    assert "time_unit" not in read_input(source).meta
+    assert read_input(source, "gml", {"time_unit": "ms"}).meta["time_unit"] == "ms"

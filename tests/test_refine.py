@@ -402,6 +402,21 @@ def test_auto_walks_up_to_the_goal_and_records_the_curve(word: Path) -> None:
     assert len(kept) == 1 and kept[0]["chamfer_max_px"] == min(s["chamfer_max_px"] for s in stages)
     assert report_of(out)["chamfer_max_px"] == pytest.approx(kept[0]["chamfer_max_px"], rel=0.05)
     assert report_of(out)["moves"] == kept[0]["moves"]
+    short = [w for w in report_of(out).get("warnings", []) if "did not reach" in w]
+    assert bool(short) == (report_of(out)["chamfer_max_px"] > 2.5)
+
+
+def test_auto_says_when_it_ends_short_of_its_goal(word: Path) -> None:
+    """--targets auto ended at 3 px for a 2-px goal, rated good, without a word."""
+    out = word / "auto-short"
+    res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "30", "--size",
+                    "160", "--no-record", "--targets", "auto", "--max-error", "0.05")
+    assert res.returncode == 0, res.stderr
+    r = report_of(out)
+    assert r["chamfer_max_px"] > 0.05
+    assert ("warning: --targets auto did not reach --max-error 0.05 px: its best plan misses "
+            f"by up to {r['chamfer_max_px']:.2f} px with {r['moves']} sub-movements") \
+        in res.stderr
 
 
 def test_bad_target_counts_are_one_sentence(word: Path) -> None:

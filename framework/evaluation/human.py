@@ -5,8 +5,12 @@ paper's Fig. 2c: the fit is never shown the recorded speed, yet the minimum-time
 Recorded times. GML points may carry time stamps; the GML reader keeps them per stroke in
 ``Traces.meta["t"]`` (aligned with the points, which it de-duplicates together with their
 times). :meth:`Traces.fit_to_canvas` scales the points uniformly and leaves the times as
-they are, so the two stay aligned. GML writers use seconds or milliseconds: a recording
-whose longest stroke lasts more than :data:`MS_THRESHOLD` is taken to be in milliseconds.
+they are, so the two stay aligned. GML writers use seconds or milliseconds, and the file
+does not say which (a reader may: ``Traces.meta["time_unit"]``, e.g. the GML reader's
+``time_unit`` option). The step between successive time stamps tells them apart where a
+stroke's duration cannot (a 68-ms dash in ms and a 2-minute spiral in s): a digitiser
+samples at 2 Hz to 2 kHz, so its median step is under :data:`MS_STEP` in seconds and at
+least that in milliseconds.
 
 Time quantisation. Recorders often stamp several consecutive points with the same time
 (the 000000book tags: 2–3 points per ~16 ms display frame). Each distinct time is taken as
@@ -40,19 +44,68 @@ from inkmotion.evaluation.metrics import speed_peaks
 if TYPE_CHECKING:
     from inkmotion.geometry.traces import Traces
 
-#: a recording whose longest stroke lasts more than this (in its own unit) is in ms
+#: a recording whose median step between successive time stamps is at least this (in its
+#: own unit) is in ms: a sampling rate of 2 kHz in ms, of 2 Hz in s (module docstring)
+MS_STEP = 0.5
+#: a recording with no step (a stroke per time stamp) whose longest stroke lasts more
+#: than this (in its own unit) is in ms
 MS_THRESHOLD = 100.0
 #: default matching tolerance, in normalised arc length
 TOLERANCE = 0.1
 
 
-def times_in_seconds(times: list[np.ndarray]) -> tuple[list[np.ndarray], str]:
-    """``times`` (one array per stroke) in seconds, and the unit detected: "ms" when the
-    longest stroke lasts more than :data:`MS_THRESHOLD`, else "s"."""
-    longest = max((float(np.nanmax(t) - np.nanmin(t)) for t in times if len(t)), default=0.0)
-    if longest > MS_THRESHOLD:
-        return [np.asarray(t, dtype=np.float64) / 1000.0 for t in times], "ms"
-    return [np.asarray(t, dtype=np.float64) for t in times], "s"
+def time_unit(times: list[np.ndarray]) -> str:
+    """The unit of ``times`` (one array per stroke): "ms" when the median step between
+    successive distinct time stamps is at least :data:`MS_STEP`, else "s" (module
+    docstring); with no such step, "ms" when the longest stroke lasts more than
+    :data:`MS_THRESHOLD`."""
+    arrays = [np.asarray(t, dtype=np.float64) for t in times]
+    steps = np.concatenate([np.diff(t) for t in arrays if len(t) > 1] or [np.zeros(0)])
+    steps = steps[steps > 0]
+    if len(steps):
+        return "ms" if float(np.median(steps)) >= MS_STEP else "s"
+    longest = max((float(np.nanmax(t) - np.nanmin(t)) for t in arrays if len(t)), default=0.0)
+    return "ms" if longest > MS_THRESHOLD else "s"
+
+
+def times_in_seconds(times: list[np.ndarray], unit: str = "auto"
+                     ) -> tuple[list[np.ndarray], str]:
+    """``times`` (one array per stroke) in seconds, and their unit: ``unit`` ("s" or
+    "ms"), or for "auto" the one :func:`time_unit` finds."""
+    if unit == "auto":
+        unit = time_unit(times)
+    scale = 1000.0 if unit == "ms" else 1.0
+    return [np.asarray(t, dtype=np.float64) / scale for t in times], unit
+
+
+#: a stroke whose time stamps step back by more than this many times the recording's median
+#: step has a clock that jumped, not the jitter of a quantised one
+JUMP_STEPS = 3.0
+
+
+def clock_jumps(times: list[np.ndarray]) -> dict[int, float]:
+    """The strokes whose time stamps (in s, one array per stroke) step back by more than
+    :data:`JUMP_STEPS` × the recording's median forward step, and each one's largest step
+    back, s: their recorded speed would show a false plateau where the clock ran back."""
+    forward = np.concatenate([np.diff(t) for t in times if len(t) > 1] or [np.zeros(0)])
+    forward = forward[forward > 0]
+    if not len(forward):
+        return {}
+    limit = JUMP_STEPS * float(np.median(forward))
+    jumps = {}
+    for i, t in enumerate(times):
+        back = -float(np.diff(t).min()) if len(t) > 1 else 0.0
+        if back > limit:
+            jumps[i] = back
+    return jumps
+
+
+def _strokes(indices: list[int]) -> str:
+    """"stroke 3", "strokes 1, 4 and 7" (1-based), at most five named."""
+    names = [str(i + 1) for i in indices[:5]] + (["…"] if len(indices) > 5 else [])
+    if len(names) == 1:
+        return f"stroke {names[0]}"
+    return "strokes " + ", ".join(names[:-1]) + " and " + names[-1]
 
 
 def arc_length(points: np.ndarray) -> np.ndarray:
@@ -92,14 +145,14 @@ def recorded_speed(stroke: np.ndarray, t: np.ndarray, *, rate: float = 200.0,
                    unit: str = "auto") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Speed profile of one recorded stroke ``stroke`` (k, 2|3) with times ``t`` (k,).
 
-    ``unit`` is "s", "ms" or "auto" (ms when the stroke lasts more than
-    :data:`MS_THRESHOLD`). Returns, on a uniform grid of ``rate`` Hz from the first to the
+    ``unit`` is "s", "ms" or "auto" (:func:`time_unit` of this stroke). Returns, on a
+    uniform grid of ``rate`` Hz from the first to the
     last time: the arc length (n,) in the stroke's units, the speed (n,) in units/s,
     smoothed by a Gaussian of ``smooth_s`` s, and the times (n,) in s."""
     t = np.asarray(t, dtype=np.float64)
     if len(t) != len(stroke):
         raise ValueError(f"{len(stroke)} points but {len(t)} times")
-    if unit == "ms" or (unit == "auto" and float(t.max() - t.min()) > MS_THRESHOLD):
+    if unit == "ms" or (unit == "auto" and time_unit([t]) == "ms"):
         t = t / 1000.0
     anchor_t, anchor_s = time_anchors(arc_length(stroke), t)
     if len(anchor_t) < 2:
@@ -135,8 +188,8 @@ def compare_peaks(recorded_arc: np.ndarray, recorded_speed: np.ndarray, fit_arc:
     uniform in time, already smoothed as wanted.
 
     Returns recorded_peaks, fit_peaks (counts), matched (pairs within ``tolerance``),
-    mean_offset (mean |Δs| of the matched pairs, normalised arc length; None when none),
-    and the peak positions recorded_at, fit_at."""
+    by_chance (:func:`matched_by_chance`), mean_offset (mean |Δs| of the matched pairs,
+    normalised arc length; None when none), and the peak positions recorded_at, fit_at."""
     rec_at = _normalised(recorded_arc)[_peaks_from_rest(recorded_speed, prominence)]
     fit_at = _normalised(fit_arc)[_peaks_from_rest(fit_speed, prominence)]
     offsets: np.ndarray = np.zeros(0)
@@ -144,15 +197,42 @@ def compare_peaks(recorded_arc: np.ndarray, recorded_speed: np.ndarray, fit_arc:
         cost = np.abs(rec_at[:, None] - fit_at[None, :])
         rows, cols = linear_sum_assignment(cost)
         offsets = cost[rows, cols]
-        offsets = offsets[offsets <= tolerance]
+        offsets = offsets[offsets <= tolerance]  # as _matched counts them
     return {
         "recorded_peaks": int(len(rec_at)),
         "fit_peaks": int(len(fit_at)),
         "matched": int(len(offsets)),
+        "by_chance": matched_by_chance(rec_at, len(fit_at), tolerance),
         "mean_offset": float(offsets.mean()) if len(offsets) else None,
         "recorded_at": rec_at.tolist(),
         "fit_at": fit_at.tolist(),
     }
+
+
+#: random placements averaged by :func:`matched_by_chance`
+CHANCE_DRAWS = 64
+
+
+def _matched(rec_at: np.ndarray, fit_at: np.ndarray, tolerance: float) -> int:
+    """Pairs of the one-to-one assignment of least total distance within ``tolerance``."""
+    if not len(rec_at) or not len(fit_at):
+        return 0
+    cost = np.abs(rec_at[:, None] - fit_at[None, :])
+    rows, cols = linear_sum_assignment(cost)
+    return int(np.count_nonzero(cost[rows, cols] <= tolerance))
+
+
+def matched_by_chance(rec_at: np.ndarray, fit_peaks: int, tolerance: float) -> float:
+    """The matches ``fit_peaks`` peaks placed at random along the stroke (uniform in
+    normalised arc length) get on average against the recorded ones at ``rec_at``: the
+    level a fit's ``matched`` must beat to say anything (a fixed seed: the same figure
+    every time)."""
+    if not len(rec_at) or not fit_peaks:
+        return 0.0
+    rng = np.random.default_rng(0)
+    rec_at = np.asarray(rec_at, dtype=np.float64)
+    return float(np.mean([_matched(rec_at, rng.uniform(0.0, 1.0, fit_peaks), tolerance)
+                          for _ in range(CHANCE_DRAWS)]))
 
 
 def human_agreement(recorded: list[tuple[np.ndarray, np.ndarray]],
@@ -164,8 +244,10 @@ def human_agreement(recorded: list[tuple[np.ndarray, np.ndarray]],
     ``recorded``: per stroke (points (k, 2|3), times (k,) in s); ``fit``: per stroke
     (positions (n, D) uniform in time, speeds (n,)), in the same canvas coordinates and the
     same order. Returns {"strokes": [...], "total": {...}} with recorded_duration_s,
-    recorded_peaks, fit_peaks, matched_peaks and mean_position_offset (normalised arc
-    length; the total weighs strokes by their matched peaks)."""
+    recorded_peaks, fit_peaks, matched_peaks, matched_by_chance (as many fit peaks placed
+    at random), mean_position_offset (normalised arc length; the total weighs strokes by
+    their matched peaks) and in the total peaks_f1, 2·matched / (recorded + fit peaks): a
+    fit with more peaks than the hand's scores lower."""
     if len(recorded) != len(fit):
         raise ValueError(f"{len(recorded)} recorded strokes but {len(fit)} fitted ones")
     strokes = []
@@ -175,15 +257,20 @@ def human_agreement(recorded: list[tuple[np.ndarray, np.ndarray]],
                           prominence=prominence)
         strokes.append({"recorded_duration_s": float(times[-1] - times[0]),
                         "recorded_peaks": c["recorded_peaks"], "fit_peaks": c["fit_peaks"],
-                        "matched_peaks": c["matched"],
+                        "matched_peaks": c["matched"], "matched_by_chance": c["by_chance"],
                         "mean_position_offset": c["mean_offset"]})
     matched = sum(s["matched_peaks"] for s in strokes)
     offset = (sum(s["mean_position_offset"] * s["matched_peaks"] for s in strokes
                   if s["matched_peaks"]) / matched) if matched else None
+    recorded_peaks = sum(s["recorded_peaks"] for s in strokes)
+    fit_peaks = sum(s["fit_peaks"] for s in strokes)
+    both = recorded_peaks + fit_peaks
     total = {"recorded_duration_s": sum(s["recorded_duration_s"] for s in strokes),
-             "recorded_peaks": sum(s["recorded_peaks"] for s in strokes),
-             "fit_peaks": sum(s["fit_peaks"] for s in strokes),
-             "matched_peaks": matched, "mean_position_offset": offset}
+             "recorded_peaks": recorded_peaks, "fit_peaks": fit_peaks,
+             "matched_peaks": matched,
+             "matched_by_chance": round(sum(s["matched_by_chance"] for s in strokes), 2),
+             "peaks_f1": 2 * matched / both if both else None,
+             "mean_position_offset": offset}
     return {"strokes": strokes, "total": total, "tolerance": tolerance, "smooth_s": smooth_s}
 
 
@@ -258,15 +345,18 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
     from inkmotion.outputs.sampling import sample
 
     if traces.meta.get("t") is None:
+        missing = traces.meta.get("times_missing")
+        why = (f"{missing} of its {traces.meta.get('points')} points carry no time stamp (too "
+               "many to fill in from their neighbours)" if missing else
+               "the points carry no time stamps")
         return {"has_times": False,
-                "note": f"{source}: the points carry no time stamps, so there is no "
-                        "recorded speed to compare with."}
+                "note": f"{source}: {why}, so there is no recorded speed to compare with."}
     traces = traces.fit_to_canvas(max(drawing.canvas))
-    times, unit = times_in_seconds(traces.meta["t"])
+    times, unit = times_in_seconds(traces.meta["t"], traces.meta.get("time_unit", "auto"))
     if [len(t) for t in times] != [len(s) for s in traces.strokes]:
         raise InputError(f"{source}: the time stamps do not line up with the points.")
     if not any(advances(t) for t in times):
-        return {"has_times": False,
+        return {"has_times": False, "time_unit": unit,
                 "note": f"{source}: its time stamps do not advance along any stroke (all "
                         "the same, or running backwards), so there is no recorded speed to "
                         "compare with."}
@@ -274,7 +364,10 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
     apart = _apart(traces.strokes, [s.positions for s in samples])
     index = _pair(traces.strokes, [s.positions for s in samples])
     paired = [i for i, j in enumerate(index) if j >= 0]
-    kept = [i for i in paired if advances(times[i])]  # a stroke stamped at one time has no speed
+    untimed = [i for i in paired if not advances(times[i])]  # one time: no speed
+    back = clock_jumps(times)
+    jumped = [i for i in paired if i in back and i not in untimed]
+    kept = [i for i in paired if i not in untimed and i not in jumped]
     recorded = [(traces.strokes[i], times[i]) for i in kept]
     fit = [(samples[index[i]].positions, samples[index[i]].speed) for i in kept]
     result = human_agreement(recorded, fit, **options)
@@ -282,18 +375,36 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
     smooth_s = float(options.get("smooth_s", 0.03))
     profiles = [recorded_speed(p, t, rate=rate, smooth_s=smooth_s, unit="s")[:2]
                 for p, t in recorded]
-    plot_speed_profiles(png, profiles, [(arc_length(p), s) for p, s in fit])
+    if recorded:
+        plot_speed_profiles(png, profiles, [(arc_length(p), s) for p, s in fit])
     size = max(drawing.canvas)
-    mismatch = {} if apart <= APART_SHARE * size else {
-        "note": f"{source}: its strokes lie {apart:.0f} px from the plan's motion on average "
-                f"(on its {size:g}-px canvas; a fit's lie within a pixel or two): it does not "
-                "look like the drawing the plan was fitted to, so the speed agreement says "
-                "little; give the recording the plan was fitted to"}
-    untimed = len(paired) - len(kept)
-    left_out = {} if mismatch or not untimed else {
-        "note": f"{source}: {untimed} of its {len(paired)} strokes have time stamps that do "
-                "not advance (all the same, or running backwards), so they are left out of "
-                "the speed comparison"}
+    notes = []
+    if apart > APART_SHARE * size:
+        notes.append(f"{source}: its strokes lie {apart:.0f} px from the plan's motion on "
+                     f"average (on its {size:g}-px canvas; a fit's lie within a pixel or "
+                     "two): it does not look like the drawing the plan was fitted to, so "
+                     "the speed agreement says little; give the recording the plan was "
+                     "fitted to")
+    else:
+        if untimed:
+            notes.append(f"{source}: {len(untimed)} of its {len(paired)} strokes have "
+                         "time stamps that do not advance (all the same, or running "
+                         f"backwards: {_strokes(untimed)}), so they are left out of the "
+                         "speed comparison")
+        if jumped:
+            worst = max(back[i] for i in jumped)
+            notes.append(f"{source}: the clock runs backwards inside {len(jumped)} of its "
+                         f"{len(paired)} strokes ({_strokes(jumped)}; by up to "
+                         f"{worst * 1000:.0f} ms), so they are left out of the speed "
+                         "comparison")
+        if traces.meta.get("times_filled"):
+            filled = int(traces.meta["times_filled"])
+            notes.append(f"{source}: {filled} of its points {'carries' if filled == 1 else 'carry'}"
+                         " no time stamp; "
+                         f"{'its was' if filled == 1 else 'theirs were'} filled in from the "
+                         "neighbouring points' stamps")
+    plot = {"plot": Path(png).name} if recorded else {}
     return {"has_times": True, "time_unit": unit, "strokes_paired": len(kept),
-            "strokes_untimed": untimed, "apart_px": apart,
-            "plot": Path(png).name, **result, **mismatch, **left_out}
+            "strokes_untimed": len(untimed), "strokes_clock_back": len(jumped),
+            "apart_px": apart, **plot, **result,
+            **({"note": "; ".join(notes)} if notes else {})}

@@ -36,7 +36,12 @@ framework refits the traces to the canvas (:meth:`Traces.fit_to_canvas`).
 Strokes with ``isdrawing="false"`` (pen moves without ink) are skipped; points without
 both x and y (the spec allows bare pressure/rotation points) are skipped; ``z`` is
 ignored. Times (``<t>`` or the older ``<time>``) are kept per stroke in
-``Traces.meta["t"]`` (one float array per returned stroke) when every kept point has one.
+``Traces.meta["t"]`` (one float array per returned stroke), in the file's unit (seconds
+or milliseconds: ``meta["time_unit"]`` when the caller declares it, else the evaluation
+tells them apart). A few points without a time (at most :data:`FILLED_SHARE` of them,
+each stroke keeping two) get theirs from their stroke's neighbours, by point index, and
+``meta["times_filled"]`` counts them; with more, no stroke keeps times and
+``meta["times_missing"]`` says how many points had none.
 """
 
 from __future__ import annotations
@@ -78,15 +83,19 @@ class _Tag:
         self.own_bounds = self.own_up = False  # given in this tag's environment
 
 
-def read_gml(source: str) -> Traces:
-    """Read a GML file (XML, JSON or JSONP) into validated :class:`Traces`."""
+def read_gml(source: str, time_unit: str = "auto") -> Traces:
+    """Read a GML file (XML, JSON or JSONP) into validated :class:`Traces`; ``time_unit``
+    ("s", "ms" or "auto") is recorded as the time stamps' unit unless "auto"."""
     data = _read_bytes(source)
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise InputError(f"{source}: the file is not UTF-8 text; save it as UTF-8 GML.") from exc
     with reader_boundary(source, "GML", "check that it is a complete GML file."):
-        return _to_traces(_parse_text(text, source), source)
+        traces = _to_traces(_parse_text(text, source), source)
+    if time_unit != "auto" and "t" in traces.meta:
+        traces.meta["time_unit"] = time_unit
+    return traces
 
 
 def _read_bytes(source: str) -> bytes:
@@ -155,7 +164,7 @@ def _tag(node: _Node, source: str) -> _Tag:
     env = (header.child("environment") if header else None) or node.child("environment")
     bounds = env.child("screenBounds") if env else None
     if bounds is not None:
-        tag.bounds = _bounds(bounds.number("x", source), bounds.number("y", source))
+        tag.bounds = _bounds(bounds.number("x", source), bounds.number("y", source), source)
         tag.own_bounds = True
     up = env.child("up") if env else None
     if up is not None:
@@ -298,11 +307,19 @@ def _is_drawing(flag: Any) -> bool:
     return str(flag).strip().lower() not in ("false", "0", "no")
 
 
-def _bounds(x: float | None, y: float | None) -> tuple[float, float]:
-    """Screen bounds as a positive scale; missing or non-positive axes fall back to 1."""
-    sx = x if x is not None and math.isfinite(x) and x > 0 else 1.0
-    sy = y if y is not None and math.isfinite(y) and y > 0 else 1.0
-    return sx, sy
+def _bounds(x: float | None, y: float | None, source: str) -> tuple[float, float]:
+    """Screen bounds as a positive scale of both axes; when either is missing, zero or not
+    finite, (1, 1): one axis scaled alone would squash the drawing flat. A negative one
+    is refused (a screen held otherwise is the up vector's to say)."""
+    for axis, value in (("x", x), ("y", y)):
+        if value is not None and value < 0:
+            raise InputError(
+                f"{source}: its screenBounds {axis} is {value:g}, but a screen's size cannot "
+                "be negative; correct it (the up vector, not the bounds, says which way the "
+                "screen was held).")
+    if all(v is not None and math.isfinite(v) and v > 0 for v in (x, y)):
+        return float(x), float(y)  # type: ignore[arg-type]
+    return 1.0, 1.0
 
 
 def _up(x: float | None, y: float | None) -> tuple[float, float]:
@@ -331,6 +348,33 @@ def _check_count(tag: _Tag, points: list, source: str) -> None:
             f"{source}: more than {MAX_POINTS} points, the limit; "
             "simplify the drawing or split it into several inputs."
         )
+
+
+#: the largest share of a drawing's points whose missing time stamps are filled in from
+#: their neighbours (module docstring); with more the recording has no times
+FILLED_SHARE = 0.1
+
+
+def _filled_times(times: list[np.ndarray]) -> tuple[list[np.ndarray] | None, int]:
+    """``times`` (one array per stroke, NaN where a point has none) with the gaps filled
+    from each stroke's stamped points by point index (ends: the nearest stamp), and how
+    many were missing; None when more than :data:`FILLED_SHARE` are, or a stroke with a
+    gap has fewer than two stamps."""
+    missing = sum(int(np.count_nonzero(~np.isfinite(t))) for t in times)
+    total = sum(len(t) for t in times)
+    if not missing:
+        return times, 0
+    filled = []
+    for t in times:
+        known = np.isfinite(t)
+        if known.all():
+            filled.append(t)
+            continue
+        if missing > FILLED_SHARE * total or int(known.sum()) < 2:
+            return None, missing
+        index = np.arange(len(t))
+        filled.append(np.interp(index, index[known], t[known]))
+    return filled, missing
 
 
 #: how long a tap of the pen (a stroke of one point, drawn as a dab) lasts in the
@@ -369,6 +413,13 @@ def _to_traces(tags: list[_Tag], source: str) -> Traces:
         )
     meta: dict = {"format": "gml", "tags": len(tags)}
     traces = Traces(strokes, source=source, meta=meta).validated()
-    if len(traces.strokes) == len(times) and all(np.all(np.isfinite(t)) for t in times):
-        traces.meta["t"] = times
+    if len(traces.strokes) == len(times):
+        filled, missing = _filled_times(times)
+        if filled is not None:
+            traces.meta["t"] = filled
+        if missing and filled is not None:
+            traces.meta["times_filled"] = missing
+        elif missing and any(np.isfinite(t).any() for t in times):
+            traces.meta["times_missing"] = missing
+            traces.meta["points"] = sum(len(t) for t in times)
     return traces

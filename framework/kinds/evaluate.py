@@ -103,22 +103,25 @@ def human_agreement_from_files(recording: str, drawing: Any, png: str | Path,
 
 def recorded_agreement(source: str, drawing: Any, png: Path, reader: str | None = None,
                        reader_options: dict[str, Any] | None = None
-                       ) -> dict[str, Any] | None:
+                       ) -> tuple[dict[str, Any] | None, str | None]:
     """Recorded duration and peaks, fit peaks matched to them and their mean offset along
-    the trace, when ``source`` is a file whose points carry time stamps (else None); the
-    plot of both speed profiles goes to ``png`` (the fit's report and the benchmark).
-    ``reader``, ``reader_options``: the reader the fit read ``source`` with, if it named
-    one."""
+    the trace, and the time stamps' unit, when ``source`` is a file whose points carry time
+    stamps (else None); the plot of both speed profiles goes to ``png`` (the fit's report
+    and the benchmark). Also what the comparison left out or could not use, as one
+    sentence (or None): strokes without a recorded speed, a clock that ran back, stamps
+    filled in or missing. ``reader``, ``reader_options``: the reader the fit read
+    ``source`` with, if it named one."""
     from inkmotion.inputs.sources import is_scheme
     from inkmotion.samples import locate
 
     path = locate(source)  # a sample:NAME is its shipped file
     if is_scheme(path) or not Path(path).is_file():
-        return None
+        return None, None
     result = human_agreement_from_files(source, drawing, png, reader, reader_options)
+    note = result.get("note")
     if not result.get("has_times"):
-        return None
-    return dict(result["total"])
+        return None, note
+    return {**result["total"], "time_unit": result["time_unit"]}, note
 
 
 def write_csv(path: Path, table: dict, ratios: dict,

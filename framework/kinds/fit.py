@@ -400,6 +400,39 @@ def _targets_note(p: FitParams, plans: list) -> str | None:
             f"on this input{why}; the fit uses those.")
 
 
+#: recorded speed peaks per sub-movement of the plan from which the plan is said to be
+#: much sparser than the hand's motion (the development set's tags: at most 0.8)
+HAND_PEAKS_PER_MOVE = 2.0
+
+
+def _sparser_than_the_hand(p: FitParams, recorded: dict[str, Any] | None,
+                           plans: list) -> str | None:
+    """A warning when the recording has at least :data:`HAND_PEAKS_PER_MOVE` speed peaks
+    per sub-movement of the plan: its strokes are small beside the whole drawing, whose
+    size sets the plan's density, so the plan is far sparser than the hand moved."""
+    moves = sum(plan.m for plan in plans)
+    if recorded is None or recorded["recorded_peaks"] < HAND_PEAKS_PER_MOVE * moves:
+        return None
+    denser = ("a lower --dce-relevance or --targets N" if p.initialiser.name == "dce"
+              else "--targets N")
+    return (f"the recording's speed has {recorded['recorded_peaks']} peaks, the plan "
+            f"{moves} sub-movements over {len(plans)} strokes: it is far sparser than the "
+            "hand moved, because a plan's density follows the whole drawing's size and "
+            f"these strokes are small beside it; {denser} makes it denser (with a --size "
+            f"above {p.size} if its overlaps then sit on their floor).")
+
+
+def _auto_short(p: FitParams, chamfer_max: float, plans: list, rounds: int) -> str | None:
+    """A warning when ``--targets auto`` ended above its ``--max-error``: how far, with how
+    many sub-movements, after how many rounds."""
+    if p.targets != "auto" or chamfer_max <= p.max_error:
+        return None
+    return (f"--targets auto did not reach --max-error {p.max_error:g} px: its best plan "
+            f"misses by up to {chamfer_max:.2f} px with {sum(plan.m for plan in plans)} "
+            f"sub-movements (after {rounds} rounds of fitting); try --steps "
+            f"{2 * p.steps} or a larger --max-error.")
+
+
 def _trace_term(traces: Any, plans: list, dtype: Any, device: Any,
                 tolerance: float = 0.0, worst: float = 0.0) -> Any:
     """The trace term of the fit (:mod:`inkmotion.fitting.trace_loss`), each stroke owned by
@@ -452,12 +485,20 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
                   speed_peaks=metrics["fit_speed_peaks"], stages=staged.stages)
     report.update(quality_verdict(traces, plans, size, chamfer_max, job.params))
     metrics["quality"] = report["quality"]
+    short = _auto_short(job.params, chamfer_max, plans, len(staged.stages))
+    if short:
+        report["warnings"] = [*report.get("warnings", []), short]
     pinned = pinned_overlaps(plans)
     report["pinned_overlaps"] = [{"path": k, "move": i, "bound": b} for k, i, b in pinned]
     if pinned:
         report["warnings"] = [*report.get("warnings", []), pinned_warning(pinned, plans,
                                                                     job.params)]
-    recorded = _recorded_peaks(job, drawing)
+    recorded, note = _recorded_peaks(job, drawing)
+    if note is not None:
+        report["warnings"] = [*report.get("warnings", []), note]
+    sparse = _sparser_than_the_hand(job.params, recorded, plans)
+    if sparse:
+        report["warnings"] = [*report.get("warnings", []), sparse]
     if recorded is not None:
         report["recorded"] = recorded
         metrics["recorded_peaks"] = recorded["recorded_peaks"]
@@ -538,10 +579,10 @@ def t_end_ratio_multi(staged: Any) -> float:
                        staged.result.final_t_end)
 
 
-def _recorded_peaks(job: Job, drawing: Any) -> dict[str, Any] | None:
+def _recorded_peaks(job: Job, drawing: Any) -> tuple[dict[str, Any] | None, str | None]:
     """The recorded motion's duration and speed peaks and how the fit's match them, when the
     input carries time stamps (the evaluation's human agreement; its plot is
-    human_speeds.png); None otherwise."""
+    human_speeds.png); None otherwise. Also what that comparison left out, or None."""
     from inkmotion.kinds.evaluate import recorded_agreement
 
     p: FitParams = job.params
