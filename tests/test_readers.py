@@ -548,3 +548,21 @@ def test_the_gml_readers_time_unit_is_recorded_when_declared(tmp_path: Path):
                                               (0.5, 0.5, 2.0)]])
     assert "time_unit" not in read_input(source).meta
     assert read_input(source, "gml", {"time_unit": "ms"}).meta["time_unit"] == "ms"
+
+
+def test_an_svg_switch_draws_only_the_child_a_viewer_draws(tmp_path: Path):
+    """svgelements drew every child of a <switch>: each language's version of a label, and
+    Illustrator's private copy beside its drawing. The first child whose conditions hold
+    is drawn: no extension is supported, the language is English."""
+    f = tmp_path / "switch.svg"
+    f.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 200 100"><switch>'
+        '<foreignObject requiredExtensions="http://ns.adobe.com/AdobeIllustrator/10.0/">'
+        '<path d="M0 0 L10 10" stroke="black"/></foreignObject>'
+        '<g systemLanguage="fr"><path d="M10 10 L190 10" stroke="black"/></g>'
+        '<g systemLanguage="de, en-GB"><path d="M10 50 L190 50" stroke="black"/></g>'
+        '<g><path d="M10 90 L190 90" stroke="black"/></g></switch>'
+        '<path d="M100 0 V100" stroke="black"/></svg>')
+    english, after = read_svg(str(f)).strokes
+    np.testing.assert_allclose(english, [[10, 50], [190, 50]])
+    np.testing.assert_allclose(after, [[100, 0], [100, 100]])

@@ -136,7 +136,7 @@ def _document(path: Any, source: str) -> Any:
     else:
         data = Path(path).read_bytes()
     if (b"<symbol" not in data and b'%"' not in data and b"%'" not in data
-            and b"<style" not in data):
+            and b"<style" not in data and b"<switch" not in data):
         return io.BytesIO(data)  # read once: svgelements parses these bytes
     return io.BytesIO(_as_svg_means(data))
 
@@ -150,7 +150,8 @@ def _as_svg_means(data: bytes) -> bytes:
     """The SVG ``data`` with what svgelements (1.9) reads otherwise made explicit: a
     percentage length of a shape as user units of the root viewport (it takes a share of
     the height for x and of the width for y); CSS rules whose selectors nest
-    (:func:`_apply_nested_css`); a ``<symbol>`` drawn only where a ``<use>``
+    (:func:`_apply_nested_css`); a ``<switch>`` as its one child drawn
+    (:func:`_resolve_switches`); a ``<symbol>`` drawn only where a ``<use>``
     places it (moved into ``<defs>``), and a ``<use>`` with a width and height fitting the
     symbol's ``viewBox`` into them (preserveAspectRatio's default, xMidYMid meet), as a
     transform."""
@@ -160,7 +161,7 @@ def _as_svg_means(data: bytes) -> bytes:
     ET.register_namespace("", svg_ns)
     ET.register_namespace("xlink", xlink)
     root = ET.fromstring(data)
-    changed = _resolve_percentages(root) | _apply_nested_css(root)
+    changed = _resolve_percentages(root) | _apply_nested_css(root) | _resolve_switches(root)
     symbols = {}
     for parent in root.iter():
         for child in list(parent):
@@ -192,6 +193,41 @@ def _as_svg_means(data: bytes) -> bytes:
             use.attrib.pop(name, None)
     # unchanged, the file as it was (written again, it would lose comments and CDATA)
     return ET.tostring(root) if changed or symbols else data
+
+
+#: the language a ``<switch>`` picks its child for (``systemLanguage``): the same choice
+#: on every machine, whatever its locale
+SWITCH_LANGUAGE = "en"
+
+
+def _resolve_switches(root: Any) -> bool:
+    """Each ``<switch>`` of ``root`` made a group of the one child a viewer draws: the
+    first whose conditions hold, for a reader that supports no extension
+    (``requiredExtensions``, e.g. Illustrator's private data beside its drawing) and reads
+    :data:`SWITCH_LANGUAGE` (``systemLanguage``); ``requiredFeatures`` hold (SVG 2).
+    svgelements draws every child. Returns whether any switch was found."""
+
+    def holds(el: Any) -> bool:
+        if (el.get("requiredExtensions") or "").strip():
+            return False
+        languages = el.get("systemLanguage")
+        if languages is None:
+            return True
+        return any(lang.strip().lower().split("-")[0] == SWITCH_LANGUAGE
+                   for lang in languages.split(","))
+
+    found = False
+    for switch in list(root.iter()):
+        if not isinstance(switch.tag, str) or switch.tag.rsplit("}", 1)[-1] != "switch":
+            continue
+        found = True
+        children = [c for c in switch if isinstance(c.tag, str)]
+        chosen = next((c for c in children if holds(c)), None)
+        for child in children:
+            if child is not chosen:
+                switch.remove(child)
+        switch.tag = switch.tag[:-len("switch")] + "g"
+    return found
 
 
 #: one compound selector of a CSS rule: a tag, classes and an id, each optional
