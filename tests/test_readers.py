@@ -566,3 +566,55 @@ def test_an_svg_switch_draws_only_the_child_a_viewer_draws(tmp_path: Path):
     english, after = read_svg(str(f)).strokes
     np.testing.assert_allclose(english, [[10, 50], [190, 50]])
     np.testing.assert_allclose(after, [[100, 0], [100, 100]])
+
+
+def test_an_svg_clip_path_cuts_what_it_clips(tmp_path: Path):
+    """svgelements applies no clip path: a matplotlib line clipped to its axes, or art cut
+    by a Figma frame, was drawn whole. The part inside is drawn, in the clipped element's
+    coordinates (its transform, and its ancestors'), nested clips intersected; a clip in
+    objectBoundingBox units or one that is missing leaves the path whole."""
+    f = tmp_path / "clip.svg"
+    f.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 300 200"><g>'
+        '<path d="M0 195 L300 195" stroke="black" clip-path="url(#late)"/></g>'
+        '<defs><clipPath id="c"><rect x="0" y="0" width="50" height="100"/></clipPath>'
+        '<clipPath id="bb" clipPathUnits="objectBoundingBox"><rect width=".5" height="1"/>'
+        '</clipPath><clipPath id="low"><rect x="0" y="60" width="300" height="140"/>'
+        '</clipPath></defs>'
+        '<g transform="translate(100 0)" clip-path="url(#c)">'
+        '<path d="M-20 50 L30 50 L30 20 L80 20" stroke="black" fill="none"/></g>'
+        '<g transform="scale(2)"><g clip-path="url(#c)"><path d="M10 10 L10 45" '
+        'stroke="black"/></g></g>'
+        '<g clip-path="url(#low)"><path d="M200 0 V200" stroke="black" '
+        'style="clip-path: url(\'#c\')"/><path d="M60 0 V120" stroke="black"/></g>'
+        '<path d="M0 150 L300 150" stroke="black" clip-path="url(#bb)"/>'
+        '<path d="M0 160 L300 160" stroke="black" clip-path="url(#nowhere)"/>'
+        '<clipPath id="late"><circle cx="150" cy="195" r="20"/></clipPath></svg>')
+    strokes = [s.round(6).tolist() for s in read_svg(str(f)).strokes]
+    assert strokes == [
+        [[130, 195], [170, 195]],  # a clip path defined after its use (matplotlib's)
+        [[100, 50], [130, 50], [130, 20], [150, 20]],  # in the group's translated space
+        [[20, 20], [20, 90]],  # the clip scaled with its group: inside
+        [[60, 60], [60, 120]],  # #low alone; the line at x 200 is outside #c
+        [[0, 150], [300, 150]], [[0, 160], [300, 160]]]  # not applied: drawn whole
+
+
+def test_an_illustrator_clip_group_cuts_its_art(tmp_path: Path):
+    """Illustrator's clip group: the clip path a <use> of a shape in <defs>."""
+    f = tmp_path / "ai.svg"
+    f.write_text('<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999'
+                 '/xlink" viewBox="0 0 200 200"><g><defs><rect id="SVGID_1_" x="20" y="20" '
+                 'width="100" height="100"/></defs><clipPath id="SVGID_2_"><use xlink:href='
+                 '"#SVGID_1_" overflow="visible"/></clipPath><g clip-path="url(#SVGID_2_)">'
+                 '<path fill="none" stroke="#000" d="M0 70 L200 70"/></g></g></svg>')
+    (stroke,) = read_svg(str(f)).strokes
+    np.testing.assert_allclose(stroke, [[20, 70], [120, 70]])
+
+
+def test_an_svg_whose_every_path_is_clipped_away_says_so(tmp_path: Path):
+    f = tmp_path / "away.svg"
+    f.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 100"><defs>'
+                 '<clipPath id="c"><rect width="10" height="10"/></clipPath></defs>'
+                 '<path d="M50 50 L90 90" stroke="black" clip-path="url(#c)"/></svg>')
+    with pytest.raises(InputError, match="draw nothing"):
+        read_svg(str(f))

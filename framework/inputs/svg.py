@@ -30,6 +30,13 @@ from inkmotion.errors import InputError
 from inkmotion.geometry.input_file import MAX_FILE_BYTES as DEFAULT_MAX_FILE_BYTES
 from inkmotion.geometry.input_file import checked_input_file, reader_boundary
 from inkmotion.geometry.traces import MAX_POINTS, Traces
+from inkmotion.inputs.svg_clip import (
+    clip_polylines,
+    clips_of,
+    mark_clip_regions,
+    region_of,
+    regions,
+)
 
 #: files larger than this are refused before parsing (bytes)
 MAX_FILE_BYTES = DEFAULT_MAX_FILE_BYTES
@@ -61,10 +68,12 @@ def read_svg(source: str) -> Traces:
             raise InputError(f"{source}: the file is XML but not an SVG (its root is not "
                              f"<svg>); export the drawing as an SVG.")
         shown = _shown(parsed)
+        outlines = [el for el in shown if isinstance(el, se.Shape) and region_of(el)]
+        shown = [el for el in shown if region_of(el) is None]
         painted = [el for el in shown if isinstance(el, se.Shape) and _painted(el)]
         hidden = not painted and any(isinstance(el, se.Shape) for el in shown)
         shapes, paper, backgrounds = _ink(painted)
-        strokes = _flatten(shapes, se, source)
+        strokes = _flatten(shapes, se, source, outlines)
         filled = bool(shapes) and all(  # filled areas with no stroke: a logo's export
             el.fill is not None and el.fill.value is not None
             and (el.stroke is None or el.stroke.value is None) for el in shapes)
@@ -85,7 +94,8 @@ def read_svg(source: str) -> Traces:
     if not strokes and any(isinstance(el, se.Shape) for el in shown):
         raise InputError(
             f"{source}: the SVG's paths and shapes draw nothing (a moveto alone, a shape "
-            "of zero size), so there is nothing to draw; check that it holds the drawing."
+            "of zero size, a path wholly outside its clip path), so there is nothing to "
+            "draw; check that it holds the drawing."
         )
     if not strokes:
         raise InputError(
@@ -136,7 +146,8 @@ def _document(path: Any, source: str) -> Any:
     else:
         data = Path(path).read_bytes()
     if (b"<symbol" not in data and b'%"' not in data and b"%'" not in data
-            and b"<style" not in data and b"<switch" not in data):
+            and b"<style" not in data and b"<switch" not in data
+            and b"clip-path" not in data):
         return io.BytesIO(data)  # read once: svgelements parses these bytes
     return io.BytesIO(_as_svg_means(data))
 
@@ -151,17 +162,19 @@ def _as_svg_means(data: bytes) -> bytes:
     percentage length of a shape as user units of the root viewport (it takes a share of
     the height for x and of the width for y); CSS rules whose selectors nest
     (:func:`_apply_nested_css`); a ``<switch>`` as its one child drawn
-    (:func:`_resolve_switches`); a ``<symbol>`` drawn only where a ``<use>``
-    places it (moved into ``<defs>``), and a ``<use>`` with a width and height fitting the
-    symbol's ``viewBox`` into them (preserveAspectRatio's default, xMidYMid meet), as a
-    transform."""
+    (:func:`_resolve_switches`); clip paths marked to be applied
+    (:func:`inkmotion.inputs.svg_clip.mark_clip_regions`); a ``<symbol>`` drawn only where
+    a ``<use>`` places it (moved into ``<defs>``), and a ``<use>`` with a width and height
+    fitting the symbol's ``viewBox`` into them (preserveAspectRatio's default, xMidYMid
+    meet), as a transform."""
     import xml.etree.ElementTree as ET
 
     svg_ns, xlink = "http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"
     ET.register_namespace("", svg_ns)
     ET.register_namespace("xlink", xlink)
     root = ET.fromstring(data)
-    changed = _resolve_percentages(root) | _apply_nested_css(root) | _resolve_switches(root)
+    changed = (_resolve_percentages(root) | _apply_nested_css(root)
+               | _resolve_switches(root) | mark_clip_regions(root))
     symbols = {}
     for parent in root.iter():
         for child in list(parent):
@@ -346,7 +359,7 @@ def _any_hidden_shape(path: Any, source: str, shown: list[Any]) -> bool:
     import svgelements as se
 
     every = se.SVG.parse(_document(path, source), parse_display_none=True).elements()
-    return sum(isinstance(el, se.Shape) for el in every) > sum(
+    return sum(isinstance(el, se.Shape) and region_of(el) is None for el in every) > sum(
         isinstance(el, se.Shape) for el in shown)
 
 
@@ -418,10 +431,12 @@ def _painted(shape: Any) -> bool:
     return _stroked(shape) or (_filled(shape) and type(shape).__name__ != "SimpleLine")
 
 
-def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
+def _flatten(shapes: list[Any], se: Any, source: str,
+             outlines: list[Any] | None = None) -> list[np.ndarray]:
     """The ``shapes`` that are drawn (shown, :func:`_shown`, and painted,
-    :func:`_painted`) as polylines (one per subpath)."""
-    paths = []
+    :func:`_painted`) as polylines (one per subpath), each cut to the clip regions it is
+    marked with, whose shapes are ``outlines`` (:mod:`inkmotion.inputs.svg_clip`)."""
+    paths, regions_of = [], []
     for el in shapes:
         # abs: the transform applied to the segments themselves (a shape that cannot carry
         # it, a circle in a rotated group, keeps it aside, unapplied, as a matrix)
@@ -429,6 +444,7 @@ def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
         if len(path) == 0:
             continue
         paths.append(path)
+        regions_of.append(clips_of(el))
     if not paths:
         return []
     boxes = [p.bbox() for p in paths]
@@ -438,10 +454,14 @@ def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
     lo = np.min([b[:2] for b in boxes], axis=0)
     hi = np.max([b[2:] for b in boxes], axis=0)
     tol = FLATNESS * max(float(np.hypot(*(hi - lo))), 1e-9)
+    areas = _clip_areas(outlines or [], se, tol) if any(regions_of) else {}
     strokes: list[np.ndarray] = []
     count = 0
-    for path in paths:
-        for stroke in _path_strokes(path, se, tol):
+    for path, clips in zip(paths, regions_of, strict=True):
+        lines = _path_strokes(path, se, tol)
+        for n in clips:
+            lines = clip_polylines(lines, areas.get(n))
+        for stroke in lines:
             count += len(stroke)
             if count > MAX_POINTS:
                 raise InputError(
@@ -450,6 +470,16 @@ def _flatten(shapes: list[Any], se: Any, source: str) -> list[np.ndarray]:
                 )
             strokes.append(stroke)
     return strokes
+
+
+def _clip_areas(outlines: list[Any], se: Any, tol: float) -> dict[int, Any]:
+    """Each clip region's area (:func:`inkmotion.inputs.svg_clip.regions`) from the
+    parsed shapes that outline it."""
+    lines: dict[int, list[np.ndarray]] = {}
+    for el in outlines:
+        path = abs(el if isinstance(el, se.Path) else se.Path(el))
+        lines.setdefault(region_of(el), []).extend(_path_strokes(path, se, tol))
+    return regions(lines)
 
 
 def _path_strokes(path: Any, se: Any, tol: float) -> list[np.ndarray]:
