@@ -146,9 +146,9 @@ def recorded_speed(stroke: np.ndarray, t: np.ndarray, *, rate: float = 200.0,
     """Speed profile of one recorded stroke ``stroke`` (k, 2|3) with times ``t`` (k,).
 
     ``unit`` is "s", "ms" or "auto" (:func:`time_unit` of this stroke). Returns, on a
-    uniform grid of ``rate`` Hz from the first to the
-    last time: the arc length (n,) in the stroke's units, the speed (n,) in units/s,
-    smoothed by a Gaussian of ``smooth_s`` s, and the times (n,) in s."""
+    uniform grid of ``rate`` Hz from the first to the last time: the arc length (n,) in
+    the stroke's units, the speed (n,) in units/s, smoothed by a Gaussian of ``smooth_s``
+    s, and the times (n,) in s."""
     t = np.asarray(t, dtype=np.float64)
     if len(t) != len(stroke):
         raise ValueError(f"{len(stroke)} points but {len(t)} times")
@@ -192,12 +192,7 @@ def compare_peaks(recorded_arc: np.ndarray, recorded_speed: np.ndarray, fit_arc:
     normalised arc length; None when none), and the peak positions recorded_at, fit_at."""
     rec_at = _normalised(recorded_arc)[_peaks_from_rest(recorded_speed, prominence)]
     fit_at = _normalised(fit_arc)[_peaks_from_rest(fit_speed, prominence)]
-    offsets: np.ndarray = np.zeros(0)
-    if len(rec_at) and len(fit_at):
-        cost = np.abs(rec_at[:, None] - fit_at[None, :])
-        rows, cols = linear_sum_assignment(cost)
-        offsets = cost[rows, cols]
-        offsets = offsets[offsets <= tolerance]  # as _matched counts them
+    offsets = _matched_offsets(rec_at, fit_at, tolerance)
     return {
         "recorded_peaks": int(len(rec_at)),
         "fit_peaks": int(len(fit_at)),
@@ -213,13 +208,15 @@ def compare_peaks(recorded_arc: np.ndarray, recorded_speed: np.ndarray, fit_arc:
 CHANCE_DRAWS = 64
 
 
-def _matched(rec_at: np.ndarray, fit_at: np.ndarray, tolerance: float) -> int:
-    """Pairs of the one-to-one assignment of least total distance within ``tolerance``."""
+def _matched_offsets(rec_at: np.ndarray, fit_at: np.ndarray, tolerance: float) -> np.ndarray:
+    """|Δs| of the pairs of the one-to-one assignment of least total distance between the
+    peak positions ``rec_at`` and ``fit_at`` that lie within ``tolerance``."""
     if not len(rec_at) or not len(fit_at):
-        return 0
+        return np.zeros(0)
     cost = np.abs(rec_at[:, None] - fit_at[None, :])
     rows, cols = linear_sum_assignment(cost)
-    return int(np.count_nonzero(cost[rows, cols] <= tolerance))
+    offsets = cost[rows, cols]
+    return offsets[offsets <= tolerance]
 
 
 def matched_by_chance(rec_at: np.ndarray, fit_peaks: int, tolerance: float) -> float:
@@ -231,8 +228,8 @@ def matched_by_chance(rec_at: np.ndarray, fit_peaks: int, tolerance: float) -> f
         return 0.0
     rng = np.random.default_rng(0)
     rec_at = np.asarray(rec_at, dtype=np.float64)
-    return float(np.mean([_matched(rec_at, rng.uniform(0.0, 1.0, fit_peaks), tolerance)
-                          for _ in range(CHANCE_DRAWS)]))
+    return float(np.mean([len(_matched_offsets(rec_at, rng.uniform(0.0, 1.0, fit_peaks),
+                                               tolerance)) for _ in range(CHANCE_DRAWS)]))
 
 
 def human_agreement(recorded: list[tuple[np.ndarray, np.ndarray]],

@@ -485,20 +485,16 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
                   speed_peaks=metrics["fit_speed_peaks"], stages=staged.stages)
     report.update(quality_verdict(traces, plans, size, chamfer_max, job.params))
     metrics["quality"] = report["quality"]
-    short = _auto_short(job.params, chamfer_max, plans, len(staged.stages))
-    if short:
-        report["warnings"] = [*report.get("warnings", []), short]
     pinned = pinned_overlaps(plans)
     report["pinned_overlaps"] = [{"path": k, "move": i, "bound": b} for k, i, b in pinned]
     if pinned:
         report["warnings"] = [*report.get("warnings", []), pinned_warning(pinned, plans,
                                                                     job.params)]
-    recorded, note = _recorded_peaks(job, drawing)
-    if note is not None:
-        report["warnings"] = [*report.get("warnings", []), note]
-    sparse = _sparser_than_the_hand(job.params, recorded, plans)
-    if sparse:
-        report["warnings"] = [*report.get("warnings", []), sparse]
+    recorded, left_out = _recorded_peaks(job, drawing)
+    said = [w for w in (_auto_short(job.params, chamfer_max, plans, len(staged.stages)),
+                        left_out, _sparser_than_the_hand(job.params, recorded, plans)) if w]
+    if said:
+        report["warnings"] = [*report.get("warnings", []), *said]
     if recorded is not None:
         report["recorded"] = recorded
         metrics["recorded_peaks"] = recorded["recorded_peaks"]
