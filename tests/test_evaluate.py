@@ -119,3 +119,11 @@ def test_a_fit_says_what_its_speed_comparison_left_out_and_the_time_unit(tmp_pat
                     str(tmp_path / "eval"))
     assert res.returncode == 0, res.stderr
     assert said in res.stderr
+    # a drawing with no time stamps at all (an SVG, a picture) is not warned about them
+    svg = tmp_path / "line.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 50"><path '
+                   'd="M5 25 C 30 0, 70 50, 95 25" stroke="black" fill="none"/></svg>')
+    res = inkmotion("run", "fit", str(svg), "--out", str(tmp_path / "svg"), "--steps", "20",
+                    "--size", "160", "--no-record")
+    assert res.returncode == 0, res.stderr
+    assert "warning" not in res.stderr, res.stderr

@@ -346,14 +346,14 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
         why = (f"{missing} of its {traces.meta.get('points')} points carry no time stamp (too "
                "many to fill in from their neighbours)" if missing else
                "the points carry no time stamps")
-        return {"has_times": False,
+        return {"has_times": False, "stamped": bool(missing),
                 "note": f"{source}: {why}, so there is no recorded speed to compare with."}
     traces = traces.fit_to_canvas(max(drawing.canvas))
     times, unit = times_in_seconds(traces.meta["t"], traces.meta.get("time_unit", "auto"))
     if [len(t) for t in times] != [len(s) for s in traces.strokes]:
         raise InputError(f"{source}: the time stamps do not line up with the points.")
     if not any(advances(t) for t in times):
-        return {"has_times": False, "time_unit": unit,
+        return {"has_times": False, "stamped": True, "time_unit": unit,
                 "note": f"{source}: its time stamps do not advance along any stroke (all "
                         "the same, or running backwards), so there is no recorded speed to "
                         "compare with."}

@@ -44,6 +44,11 @@ MAX_FILE_BYTES = DEFAULT_MAX_FILE_BYTES
 FLATNESS = 2e-4
 #: deepest subdivision per curve segment (2**MAX_DEPTH intervals at most)
 MAX_DEPTH = 12
+#: the class of an SVG's annotations that are not part of the drawing: the arrows and
+#: numbers ``inkmotion trace`` writes beside each stroke, so that its strokes.svg, checked
+#: or corrected, is fitted as the strokes alone
+ANNOTATION_CLASS = "inkmotion-order"
+
 #: a filled shape with no stroke whose every channel is at least this (0-255) is the
 #: paper's colour (white, or nearly), not ink
 PAPER_LEVEL = 240
@@ -67,7 +72,7 @@ def read_svg(source: str) -> Traces:
         if not isinstance(parsed, se.SVG):  # svgelements gives what it found: no <svg> root
             raise InputError(f"{source}: the file is XML but not an SVG (its root is not "
                              f"<svg>); export the drawing as an SVG.")
-        shown = _shown(parsed)
+        shown = [el for el in _shown(parsed) if not _annotation(el)]
         outlines = [el for el in shown if isinstance(el, se.Shape) and region_of(el)]
         shown = [el for el in shown if region_of(el) is None]
         painted = [el for el in shown if isinstance(el, se.Shape) and _painted(el)]
@@ -359,8 +364,14 @@ def _any_hidden_shape(path: Any, source: str, shown: list[Any]) -> bool:
     import svgelements as se
 
     every = se.SVG.parse(_document(path, source), parse_display_none=True).elements()
-    return sum(isinstance(el, se.Shape) and region_of(el) is None for el in every) > sum(
+    return sum(isinstance(el, se.Shape) and region_of(el) is None and not _annotation(el)
+               for el in every) > sum(
         isinstance(el, se.Shape) for el in shown)
+
+
+def _annotation(el: Any) -> bool:
+    """Whether ``el`` is one of the annotations :data:`ANNOTATION_CLASS` marks."""
+    return ANNOTATION_CLASS in str(getattr(el, "values", {}).get("class", "")).split()
 
 
 def _shown(svg: Any) -> list[Any]:

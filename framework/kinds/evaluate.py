@@ -109,7 +109,8 @@ def recorded_agreement(source: str, drawing: Any, png: Path, reader: str | None 
     stamps (else None); the plot of both speed profiles goes to ``png`` (the fit's report
     and the benchmark). Also what the comparison left out or could not use, as one
     sentence (or None): strokes without a recorded speed, a clock that ran back, stamps
-    filled in or missing. ``reader``, ``reader_options``: the reader the fit read
+    filled in or missing (nothing of a file with no time stamps at all: an SVG, a
+    picture). ``reader``, ``reader_options``: the reader the fit read
     ``source`` with, if it named one."""
     from inkmotion.inputs.sources import is_scheme
     from inkmotion.samples import locate
@@ -119,8 +120,8 @@ def recorded_agreement(source: str, drawing: Any, png: Path, reader: str | None 
         return None, None
     result = human_agreement_from_files(source, drawing, png, reader, reader_options)
     note = result.get("note")
-    if not result.get("has_times"):
-        return None, note
+    if not result.get("has_times"):  # said only of a file that has some time stamps
+        return None, note if result.get("stamped") else None
     return {**result["total"], "time_unit": result["time_unit"]}, note
 
 

@@ -1,7 +1,9 @@
 """What ``inkmotion trace`` writes, so a user can check the extraction before a fit:
 
 - ``strokes.svg``: each stroke a path in drawing order, coloured along a rainbow from the
-  first to the last, with an arrow head at its end and its number at its start;
+  first to the last, with an arrow head at its end and its number at its start (of the
+  class :data:`inkmotion.inputs.svg.ANNOTATION_CLASS`, which the SVG reader does not
+  draw);
 - ``strokes.gml``: the strokes as a GML tag (points normalised to the picture's longer
   side, y down; times none), which any GML tool opens and ``inkmotion run fit`` reads;
 - ``strokes.png``: the strokes over the picture, numbered, with arrows (and in a photo of
@@ -20,6 +22,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from inkmotion.geometry.traces import Traces
+from inkmotion.inputs.svg import ANNOTATION_CLASS
 from inkmotion.json_files import dumps
 
 
@@ -57,11 +60,12 @@ def strokes_svg(traces: Traces, width: int, height: int) -> str:
         head = _arrow(s, size)
         if head is not None:
             pts = " ".join(f"{x:.2f},{y:.2f}" for x, y in head)
-            parts.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" '
-                         f'stroke-width="{size / 4:.2f}"/>')
+            parts.append(f'<polyline class="{ANNOTATION_CLASS}" points="{pts}" fill="none" '
+                         f'stroke="{colour}" stroke-width="{size / 4:.2f}"/>')
         x, y = s[0, :2]
-        parts.append(f'<text x="{x:.1f}" y="{y - size / 2:.1f}" font-size="{1.5 * size:.1f}" '
-                     f'fill="{colour}" font-family="sans-serif">{i + 1}</text>')
+        parts.append(f'<text class="{ANNOTATION_CLASS}" x="{x:.1f}" y="{y - size / 2:.1f}" '
+                     f'font-size="{1.5 * size:.1f}" fill="{colour}" '
+                     f'font-family="sans-serif">{i + 1}</text>')
     parts.append("</svg>")
     return "\n".join(parts) + "\n"
 
