@@ -74,8 +74,14 @@ def _env_int(name: str) -> int | None:
 
 def default_threads() -> int:
     """Intra-op threads of a job whose spec names none: ``INKMOTION_THREADS`` (or
-    ``OMP_NUM_THREADS``) when set, else :data:`DEFAULT_THREADS`. Nothing about the jobs
-    running beside it enters (module docstring)."""
+    ``OMP_NUM_THREADS``, when it is one number) when set, else :data:`DEFAULT_THREADS`.
+    Nothing about the jobs running beside it enters (module docstring). An
+    ``INKMOTION_THREADS`` that is not a positive whole number is refused (OpenMP's own
+    variable may hold more than a number, and is then not ours to judge)."""
+    raw = os.environ.get("INKMOTION_THREADS", "").strip()
+    if raw and _env_int("INKMOTION_THREADS") is None:
+        raise SpecError(f"INKMOTION_THREADS={raw!r} is not a positive whole number; set it "
+                        "to the CPU threads a job should use (e.g. 2) or unset it.")
     for env in ("INKMOTION_THREADS", "OMP_NUM_THREADS"):
         if (value := _env_int(env)) is not None:
             return value

@@ -34,8 +34,21 @@ def test_the_default_is_the_environments_override_else_one_thread(monkeypatch):
     assert default_threads() == 2
     monkeypatch.setenv("INKMOTION_THREADS", "3")
     assert default_threads() == 3  # inkmotion's own variable wins
-    monkeypatch.setenv("INKMOTION_THREADS", "zero")
-    assert default_threads() == 2  # not a count: the next source decides
+    monkeypatch.delenv("INKMOTION_THREADS")
+    monkeypatch.setenv("OMP_NUM_THREADS", "4,2")  # OpenMP's nested form: not ours to judge
+    assert default_threads() == 1
+    for bad in ("zero", "0", "-2", "2x"):  # were ignored without a word
+        monkeypatch.setenv("INKMOTION_THREADS", bad)
+        with pytest.raises(SpecError, match=f"INKMOTION_THREADS='{bad}' is not a positive"):
+            default_threads()
+
+
+def test_a_seed_beyond_64_bits_is_one_sentence():
+    """A seed of 2^64 ended in a 46-line traceback (torch's generator holds 64 bits)."""
+    spec = {"version": 11, "kind": "fit", "inputs": {"drawing": "text:a"}}
+    with pytest.raises(SpecError, match="seed=18446744073709551616 is too large"):
+        JobSpec.from_dict({**spec, "seed": 2**64})
+    assert JobSpec.from_dict({**spec, "seed": 2**64 - 1}).seed == 2**64 - 1
 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5, "2", True])

@@ -29,7 +29,7 @@ import typer.core
 
 from inkmotion.errors import SpecError
 from inkmotion.jobs.params import ParamInfo, check_scalar, describe
-from inkmotion.jobs.spec import JobSpec
+from inkmotion.jobs.spec import MAX_SEED, JobSpec
 
 #: the panel of the command's own options (``--out``, ``--config``, ``--force``, ...)
 IO_PANEL = "Input/Output"
@@ -38,11 +38,11 @@ SHELL_PANEL = "Every job"
 
 #: shell-level options every kind shares (spec fields, not the kind's params)
 SHELL_OPTIONS = (
-    ParamInfo("seed", int, 0, "Random seed.", minimum=0),
+    ParamInfo("seed", int, 0, "Random seed.", minimum=0, maximum=MAX_SEED),
     ParamInfo("device", str, "auto", "cpu, cuda, cuda:N or auto (CUDA when present)."),
     ParamInfo("threads", int, None, "CPU threads of the job, fixed for its whole run and "
-              "recorded in job.json (default: INKMOTION_THREADS, else 1: a fit gains "
-              "nothing from a second thread).", optional=True, minimum=1),
+              "recorded in job.json (default: INKMOTION_THREADS, or OMP_NUM_THREADS, else 1: "
+              "a fit gains nothing from a second thread).", optional=True, minimum=1),
     ParamInfo("record_every", int, 10,
               "Rendered images into recording.rrd every k steps (0: none).", minimum=0),
 )

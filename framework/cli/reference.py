@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from inkmotion.jobs.params import ParamInfo, PluginChoice, default_for, describe
+from inkmotion.jobs.params import ParamInfo, PluginChoice, default_for, describe, number_text
 from inkmotion.jobs.spec import SPEC_VERSION
 
 #: the distribution whose plugins the reference lists
@@ -115,11 +115,11 @@ def _range(info: ParamInfo) -> str:
         return ", ".join(f"`{c}`" for c in info.choices)
     lo, hi = info.minimum, info.maximum
     if lo is not None and hi is not None:
-        return f"{lo:g} … {hi:g}"
+        return f"{number_text(lo)} … {number_text(hi)}"
     if lo is not None:
-        return f"≥ {lo:g}"
+        return f"≥ {number_text(lo)}"
     if hi is not None:
-        return f"≤ {hi:g}"
+        return f"≤ {number_text(hi)}"
     return ""
 
 

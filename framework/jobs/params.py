@@ -94,6 +94,13 @@ def plugin_param(kind: str, default: str | None, help: str, *, many: bool = Fals
     return field(default_factory=lambda: PluginChoice(kind, default), metadata=meta)
 
 
+def number_text(x: float | None) -> str:
+    """A bound as a person reads it: a whole number in full, others as ``:g`` gives."""
+    if x is None:
+        return ""
+    return str(int(x)) if float(x).is_integer() else f"{x:g}"
+
+
 @dataclass(frozen=True)
 class ParamInfo:
     """One declared parameter, as the command line and the validation see it."""
@@ -206,8 +213,9 @@ def check_scalar(info: ParamInfo, value: Any, source: str = "job spec") -> Any:
         value = info.type(value)
         lo, hi = info.minimum, info.maximum
         if (lo is not None and value < lo) or (hi is not None and value > hi):
-            bounds = (f"between {lo:g} and {hi:g}" if lo is not None and hi is not None
-                      else f"at least {lo:g}" if lo is not None else f"at most {hi:g}")
+            lo_t, hi_t = number_text(lo), number_text(hi)
+            bounds = (f"between {lo_t} and {hi_t}" if lo is not None and hi is not None
+                      else f"at least {lo_t}" if lo is not None else f"at most {hi_t}")
             raise SpecError(f"{source}: {name}={value!r} must be {bounds}.")
         return value
     if not isinstance(value, str):

@@ -44,6 +44,9 @@ from inkmotion.json_files import read_json
 
 SPEC_VERSION = 11
 DEFAULT_DEVICE = "auto"
+#: the largest seed a job takes (torch's generator holds 64 bits)
+MAX_SEED = 2**64 - 1
+
 _FIELDS = ("version", "kind", "inputs", "seed", "device", "threads", "record_every",
            "params")
 
@@ -117,6 +120,9 @@ def _check_types(spec: JobSpec, source: str) -> None:
         value = getattr(spec, name)
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise SpecError(f"{source}: {name}={value!r} must be a non-negative integer.")
+    if spec.seed > MAX_SEED:
+        raise SpecError(f"{source}: seed={spec.seed} is too large; give one below 2^64 "
+                        f"(at most {MAX_SEED}).")
     threads = spec.threads
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
                                 or threads < 1):
