@@ -226,7 +226,9 @@ def test_with_the_default_settings_a_dead_workers_job_runs_again_within_a_minute
         shown: list[tuple[float, str, int]] = []  # (s since the kill, status, attempts)
 
         def running_again() -> dict | None:
-            d = json.loads(inkmotion_cli("jobs", "show", job_id, "--json").stdout)
+            shown_now = inkmotion_cli("jobs", "show", job_id, "--json")
+            assert shown_now.returncode == 0, shown_now.stderr  # say why, if it fails
+            d = json.loads(shown_now.stdout)
             shown.append((time.monotonic() - killed, d["status"], d["attempts"]))
             return d if d["status"] == "running" and d["attempts"] >= 2 else None
 
