@@ -119,6 +119,64 @@ def test_a_checkpoint_is_data_and_one_that_carries_code_is_refused(
     assert len(said) == 1 and str(checkpoint) in said[0] and "starts over" in said[0]
 
 
+def _malformed(saved: dict, how: str) -> dict:
+    """A copy of a real checkpoint ``saved`` (fingerprint right) broken as ``how`` says."""
+    import copy
+
+    import torch
+
+    bad = copy.deepcopy(saved)
+    state = bad["state"]
+    if how == "no step":
+        del bad["step"]
+    elif how == "state not a dict":
+        bad["state"] = "state"
+    elif how == "no leaves":
+        del state["leaves"]
+    elif how == "stage a string":
+        state["stage"] = "1"
+    elif how == "stage past the last":
+        state["stage"] = 9
+    elif how.startswith("leaves"):
+        name, leaf = next(iter(state["leaves"].items()))
+        state["leaves"][name] = (leaf[:1].clone() if how == "leaves that broadcast"
+                                 else leaf[:, :1].clone() if how == "leaves of another shape"
+                                 else torch.full_like(leaf, float("nan")))
+    elif how == "adam of another size":
+        state["adam"]["exp_avg"] = state["adam"]["exp_avg"][:1]
+    elif how == "plans not plans":
+        state["stage_plans"] = [{"points": "x"}]
+    return bad
+
+
+@pytest.mark.parametrize("how", [
+    "no step", "state not a dict", "no leaves", "stage a string", "stage past the last",
+    "leaves that broadcast", "leaves of another shape", "leaves not finite",
+    "adam of another size", "plans not plans"])
+def test_a_checkpoint_that_loads_as_data_but_is_malformed_starts_the_job_over(
+        tmp_path: Path, uninterrupted: dict, how: str,
+        caplog: pytest.LogCaptureFixture) -> None:
+    """Whoever can write the data directory can compute a job's fingerprint: a checkpoint
+    of plain data with a missing key, a string count, parameters of another shape (one
+    that broadcasts, too) or NaN ended the job in a traceback (a redelivered job then
+    failed on every attempt). Each is now one warning, and the job starts over and ends
+    with the uninterrupted plan."""
+    import torch
+
+    checkpoint = tmp_path / "checkpoint.pt"
+    with pytest.raises(Crash):
+        run_job(spec(), tmp_path / "a", observers=[CrashAt(45)], checkpoint=checkpoint,
+                checkpoint_every=10, checkpoint_s=1e9)
+    torch.save(_malformed(torch.load(checkpoint, weights_only=True), how), checkpoint)
+    with caplog.at_level("WARNING", logger="inkmotion"):
+        report = run_job(spec(), tmp_path / "a", checkpoint=checkpoint, checkpoint_every=10,
+                         checkpoint_s=1e9)
+    assert report["resumed_from_step"] == 0
+    assert plan_of(tmp_path / "a") == uninterrupted
+    said = [r.getMessage() for r in caplog.records if "checkpoint" in r.getMessage()]
+    assert len(said) == 1 and "starts over from step 0" in said[0], said
+
+
 def test_a_state_that_is_not_plain_data_is_a_bug_caught_when_saved(tmp_path: Path) -> None:
     ck = Checkpoints(tmp_path / "c.pt", {"a": 1})
     with pytest.raises(AssertionError, match=r"state\['x'\] is a _RunsCode"):

@@ -49,6 +49,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import torch
 
 from inkmotion.events import StepState, wants
 from inkmotion.fitting.objective import Objective
@@ -420,6 +421,64 @@ def fit_together_in_stages(problems: list[StagedProblem]) -> list[StagedFit]:
     return [done[b] for b in range(len(runs))]
 
 
+#: what a fit's checkpoint state holds (:func:`_stages` saves and resumes it)
+_COUNTS = ("stage", "done", "inserted", "merged", "added", "initial_moves", "step_in_stage")
+_KEYS = ("record", "stage_plans", "first_terms", "first_t_end", "leaves", "adam",
+         "initial_terms", "initial_t_end", "rng")
+
+
+def _unresumable(saved: dict[str, Any], plans: list[MotorPlan], settings: OptimiserSettings,
+                 stages: int) -> str | None:
+    """Why the checkpoint state ``saved`` cannot continue this fit, in a few words, or None:
+    the data of a file anyone who can write the data directory may have made, checked
+    before any of it is used (its counts, its plans, its parameters and Adam moments
+    loaded into the optimiser of those plans, all finite)."""
+    from inkmotion.fitting.optimise import _Leaves
+
+    missing = [key for key in (*_COUNTS, *_KEYS) if key not in saved]
+    if missing:
+        return f"it lacks {', '.join(missing)}"
+    if any(isinstance(saved[k], bool) or not isinstance(saved[k], int) or saved[k] < 0
+           for k in _COUNTS):
+        return "a count in it is not a whole number"
+    if saved["stage"] >= stages:
+        return "its stage is past this fit's last"
+    try:
+        dtype, device = plans[0].points.dtype, plans[0].points.device
+        stage_plans = [MotorPlan.from_dict(d, dtype).to(device=device)
+                       for d in saved["stage_plans"]]
+        if not stage_plans:
+            return "it holds no plans"
+        fresh = _Leaves(stage_plans, settings)
+        if not _same_shapes(fresh.state(), {"leaves": saved["leaves"], "adam": saved["adam"]}):
+            return "its parameters do not fit its plans"
+        fresh.load(saved)
+        if "edits" in saved:
+            _Edits.from_dict(saved["edits"])
+        list(saved["record"])
+    except Exception as exc:  # noqa: BLE001 — any malformed part: the job starts over
+        return f"its plans or optimiser state do not load: {type(exc).__name__}"
+    if not all(bool(torch.isfinite(v).all()) for v in saved["leaves"].values()):
+        return "its parameters are not finite"
+    return None
+
+
+def _same_shapes(mine: Any, theirs: Any) -> bool:
+    """Whether ``theirs`` has the structure of ``mine`` (dicts with the same keys, lists
+    of the same length) with tensors of the same shapes and dtypes where ``mine`` has
+    tensors (a copy into a tensor of another shape could broadcast without a word)."""
+    if isinstance(mine, torch.Tensor):
+        return (isinstance(theirs, torch.Tensor) and theirs.shape == mine.shape
+                and theirs.dtype == mine.dtype)
+    if isinstance(mine, dict):
+        return (isinstance(theirs, dict) and set(theirs) == set(mine)
+                and all(_same_shapes(mine[k], theirs[k]) for k in mine))
+    if isinstance(mine, (list, tuple)):
+        return (isinstance(theirs, (list, tuple)) and len(theirs) == len(mine)
+                and all(_same_shapes(a, b) for a, b in zip(mine, theirs, strict=True)))
+    return True
+
+
 def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             strokes: list[np.ndarray], refine: RefineSettings, observers: object,
             checkpoints: Any) -> Generator[Request, FitResult, StagedFit]:
@@ -450,6 +509,9 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
     if refine.mode == "auto":
         checkpoints = None  # its rounds depend on the measured errors: not resumable
     saved = checkpoints.load() if checkpoints is not None else None
+    if saved is not None and (why := _unresumable(saved, plans, settings, len(steps))):
+        checkpoints.start_over(why)
+        saved = None
     start_stage, resume, initial = 0, None, None
     if saved is not None:
         dtype, device = plans[0].points.dtype, plans[0].points.device

@@ -87,16 +87,22 @@ class Checkpoints:
         try:
             saved = torch.load(self.path, weights_only=True)
         except Exception as exc:  # a torn file, or one that is not data: start afresh
-            import logging
+            import pickle
 
-            reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            logging.getLogger("inkmotion").warning(
-                "%s is not a readable inkmotion checkpoint (%s); the job starts over from "
-                "step 0.", self.path, reason[:160])
+            reason = ("it holds objects other than tensors and plain values, which are never "
+                      "loaded" if isinstance(exc, pickle.UnpicklingError)
+                      else "it is not a complete file that torch.save wrote")
+            _start_over(self.path, reason)
             return None
         if not isinstance(saved, dict) or saved.get("fingerprint") != self.fingerprint:
             return None
-        self._last_step = int(saved["step"])
+        step, state = saved.get("step"), saved.get("state")
+        if isinstance(step, bool) or not isinstance(step, int) or step < 0 \
+                or not isinstance(state, dict):
+            _start_over(self.path, "it has no step count or state of the kind inkmotion "
+                        "saves")
+            return None
+        self._last_step = step
         made_with = saved.get("threads")
         if made_with is not None and made_with != torch.get_num_threads():
             import logging
@@ -105,11 +111,25 @@ class Checkpoints:
                 "resuming a checkpoint made with %s torch threads on %s: the result may "
                 "differ from an uninterrupted run in the last bits (INKMOTION_THREADS=%s "
                 "reproduces it)", made_with, torch.get_num_threads(), made_with)
-        return dict(saved["state"], step=int(saved["step"]))
+        return dict(state, step=step)
+
+    def start_over(self, reason: str) -> None:
+        """Say that the loaded state cannot be resumed, and why (a job kind found its own
+        part of it malformed): the job starts over from step 0."""
+        _start_over(self.path, reason)
 
     def remove(self) -> None:
         """Delete the checkpoint (the job finished): :func:`remove_checkpoint`."""
         remove_checkpoint(self.path)
+
+
+def _start_over(path: Path, reason: str) -> None:
+    """Say that the checkpoint at ``path`` is not used, and why, in one warning sentence."""
+    import logging
+
+    logging.getLogger("inkmotion").warning(
+        "%s is not a checkpoint this job can resume (%s); the job starts over from step 0.",
+        path, reason)
 
 
 def remove_checkpoint(path: Path) -> None:
