@@ -191,6 +191,40 @@ def test_a_killed_jobs_staging_folder_is_removed_by_the_next_job(tmp_path: Path)
         sleeper.wait()
 
 
+def test_a_run_that_may_not_replace_keeps_results_written_meanwhile(tmp_path: Path) -> None:
+    """Two runs started into the same new --out both succeeded, and the second replaced
+    the first without --force. Results another run committed while this one ran are now
+    kept, and this run's go to OUT-2, said in a warning."""
+    from inkmotion.jobs.shell import run_job
+    from inkmotion.jobs.spec import JobSpec
+
+    final = tmp_path / "out"
+    with StagingDir(final, replace=False) as stage:
+        (stage.path / "mine.txt").write_text("mine")
+        final.mkdir()  # the other run commits first
+        (final / "theirs.txt").write_text("theirs")
+    assert stage.diverted_from == final and stage.final == tmp_path / "out-2"
+    assert (final / "theirs.txt").exists() and (tmp_path / "out-2" / "mine.txt").exists()
+    with StagingDir(tmp_path / "empty", replace=False) as stage:  # an empty folder: taken
+        (tmp_path / "empty").mkdir()
+        (stage.path / "mine.txt").write_text("mine")
+    assert stage.diverted_from is None and (tmp_path / "empty" / "mine.txt").exists()
+
+    class OtherRunCommits:
+        def on_step(self, state: object) -> None:
+            if state.step == 3:  # type: ignore[attr-defined]
+                (tmp_path / "job").mkdir()
+                (tmp_path / "job" / "report.json").write_text("{}")
+
+    spec = JobSpec(kind="fit", inputs={"drawing": "text:hi"}, device="cpu", record_every=0,
+                   params={"steps": 5, "size": 80})
+    report = run_job(spec, tmp_path / "job", observers=[OtherRunCommits()], replace=False)
+    assert report["out_dir"] == str(tmp_path / "job-2")
+    assert "was written by another run while this one ran" in report["warnings"][-1]
+    assert (tmp_path / "job" / "report.json").read_text() == "{}"
+    assert (tmp_path / "job-2" / "plan.json").is_file()
+
+
 def test_plots_leave_the_processs_matplotlib_as_it_was(tmp_path: Path) -> None:
     """Every plot the jobs write draws on a figure of its own: the backend a notebook or
     a worker chose stays, and no pyplot figure is left open."""

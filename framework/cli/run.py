@@ -49,14 +49,16 @@ RecordOpt = Annotated[bool, typer.Option(help=RECORD_HELP, rich_help_panel=IO_PA
 JsonOpt = Annotated[bool, typer.Option("--json", help=JSON_HELP, rich_help_panel=IO_PANEL)]
 
 
-def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> None:
+def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False,
+            force: bool = False) -> None:
     """Run ``spec`` through the job shell with a progress bar, print where results are
     (``as_json``: print report.json to stdout instead; the progress and warnings go to
-    stderr either way)."""
+    stderr either way). Without ``force``, results another run wrote to ``out_dir`` while
+    this one ran are not replaced (:func:`inkmotion.jobs.shell.run_job`'s ``replace``)."""
     from inkmotion.jobs.shell import run_job
 
     try:
-        report = run_job(spec, out_dir, record=record, progress=True)
+        report = run_job(spec, out_dir, record=record, progress=True, replace=force)
     except InkmotionError as exc:
         fail(exc)
     except KeyboardInterrupt:
@@ -66,7 +68,8 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False) -> No
     for warning in report.get("warnings") or []:
         typer.secho(f"warning: {warning}", fg="yellow", err=True)
     if not as_json:
-        files = sorted(p.name for p in Path(out_dir).iterdir())
+        out_dir = Path(report.get("out_dir", out_dir))
+        files = sorted(p.name for p in out_dir.iterdir())
         typer.echo(f"results in {out_dir} ({', '.join(files)})")
 
 
@@ -97,7 +100,7 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
         resolve(spec)
     except InkmotionError as exc:
         fail(exc)
-    execute(spec, out_dir, record, as_json)
+    execute(spec, out_dir, record, as_json, force)
 
 
 _EXTRA = [

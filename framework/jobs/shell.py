@@ -211,14 +211,17 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
             record: bool = False, progress: bool = False,
             recording_id: str | None = None, checkpoint: str | Path | None = None,
             checkpoint_every: int | None = None, checkpoint_s: float | None = None,
-            checkpoint_now: Any = None) -> dict:
+            checkpoint_now: Any = None, replace: bool = True) -> dict:
     """Execute ``spec`` and place its artifacts in ``out_dir`` atomically; return the report.
 
     ``observers`` are added to the standard ones (``record``: recording.rrd; ``progress``:
     a terminal bar). ``checkpoint``: a file for the job's checkpoints (every
     ``checkpoint_every`` steps or ``checkpoint_s`` seconds), resumed from when it holds
     one of this spec; report.json then says ``resumed_from_step``; ``checkpoint_now`` (a
-    ``threading.Event``) asks for a checkpoint at the next step once it is set. Raises
+    ``threading.Event``) asks for a checkpoint at the next step once it is set.
+    ``replace=False``: results another run committed to ``out_dir`` while this one ran are
+    kept, and this run's go to ``OUT-2`` (the first free such name): the returned report
+    then says so in ``out_dir`` and a warning. Raises
     :class:`inkmotion.errors.InkmotionError` subclasses for user-caused failures (bad
     input, unknown plugin); nothing is left in ``out_dir`` then.
     """
@@ -235,7 +238,7 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
     total = int(resolved.kind.steps(resolved.params))
     checkpoints = _checkpoints(Together(spec, Path(out_dir), checkpoint=checkpoint),
                                checkpoint_every, checkpoint_s, checkpoint_now)
-    with StagingDir(Path(out_dir)) as staging:
+    with StagingDir(Path(out_dir), replace=replace) as staging:
         try:
             job = Job(spec, resolved.params, device, staging.path, group, resolved, total,
                       checkpoints=checkpoints)
@@ -245,6 +248,11 @@ def run_job(spec: JobSpec, out_dir: str | Path, observers: Sequence[object] = ()
         finally:
             group.close()  # files complete (or released) before the folder moves
         staging.commit()
+    if staging.diverted_from is not None:
+        report = {**report, "out_dir": str(staging.final), "warnings": [
+            *report.get("warnings", []),
+            f"{staging.diverted_from} was written by another run while this one ran; its "
+            f"results are kept, and this run's are in {staging.final}"]}
     return report
 
 

@@ -63,10 +63,17 @@ def remove_stale_staging(final: Path) -> list[Path]:
 
 class StagingDir:
     """``with StagingDir(final) as stage:`` write into ``stage.path``; committed on a
-    clean exit (or earlier by :meth:`commit`), discarded on an exception or :meth:`abort`."""
+    clean exit (or earlier by :meth:`commit`), discarded on an exception or :meth:`abort`.
 
-    def __init__(self, final: str | Path) -> None:
+    ``replace=False``: results already in ``final`` when it commits (another run's, which
+    committed there while this one ran) are kept, and this run's go to the first free
+    ``FINAL-2``, ``FINAL-3``, … instead; ``diverted_from`` is then the folder asked for and
+    ``final`` the one used."""
+
+    def __init__(self, final: str | Path, replace: bool = True) -> None:
         self.final = Path(final)
+        self.replace = replace
+        self.diverted_from: Path | None = None
         self.path: Path | None = None
         self.committed = False
 
@@ -82,6 +89,8 @@ class StagingDir:
         assert self.path is not None, "commit() outside the with block"
         if self.committed:
             return self.final
+        if not self.replace:
+            return self._commit_beside()
         old = None
         if self.final.exists():
             old = _sibling(self.final, "old")
@@ -96,6 +105,26 @@ class StagingDir:
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
         return self.final
+
+    def _commit_beside(self) -> Path:
+        """Move the staging directory to ``final`` unless that holds something (rename
+        fails on a folder that is not empty: no window between a check and the move),
+        else to the first free ``FINAL-N``."""
+        assert self.path is not None
+        wanted, k = self.final, 1
+        while True:
+            target = wanted if k == 1 else wanted.with_name(f"{wanted.name}-{k}")
+            try:
+                os.rename(self.path, target)
+                break
+            except OSError:
+                if not target.exists():
+                    raise
+                k += 1
+        if target != wanted:
+            self.diverted_from, self.final = wanted, target
+        self.committed = True
+        return target
 
     def abort(self) -> None:
         """Remove the staging directory; ``final`` is left as it was."""
