@@ -157,3 +157,33 @@ def test_a_fit_is_the_same_bits_under_1_2_4_threads_and_another_mkl_code_path(tm
     first = (tmp_path / "t1" / "plan.json").read_bytes()
     for name in list(runs)[1:]:
         assert (tmp_path / name / "plan.json").read_bytes() == first, name
+
+
+def test_job_json_records_the_input_files_bytes_and_the_cpu_code_path(tmp_path):
+    """job.json named its input file but not its bytes: run --config of an edited file
+    gave another plan from an identical job.json without a word. It now records each
+    input file's SHA-256 (and torch's CPU code path, which a result's last bits follow),
+    and run --config warns when the file has changed."""
+    import hashlib
+
+    svg = tmp_path / "line.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 50"><path '
+                   'd="M5 25 C 30 0, 70 50, 95 25" stroke="black" fill="none"/></svg>')
+    first = tmp_path / "first"
+    subprocess.run([*INKMOTION, "run", "fit", str(svg), "--steps", "20", "--size", "120",
+                    "--no-record", "--out", str(first)], env=_env(), check=True,
+                   capture_output=True)
+    job = json.loads((first / "job.json").read_text())
+    assert job["input_files"]["drawing"] == {
+        "path": str(svg), "sha256": hashlib.sha256(svg.read_bytes()).hexdigest()}
+    assert job["machine"]["cpu_capability"] == torch.backends.cpu.get_cpu_capability()
+    again = subprocess.run([*INKMOTION, "run", "--config", str(first / "job.json"),
+                            "--no-record", "--out", str(tmp_path / "same")], env=_env(),
+                           capture_output=True, text=True)
+    assert again.returncode == 0 and "has changed" not in again.stderr
+    svg.write_text(svg.read_text().replace("C 30 0", "C 30 10"))
+    edited = subprocess.run([*INKMOTION, "run", "--config", str(first / "job.json"),
+                             "--no-record", "--out", str(tmp_path / "edited")], env=_env(),
+                            capture_output=True, text=True)
+    assert edited.returncode == 0, edited.stderr
+    assert f"warning: {svg} has changed since this job.json was written" in edited.stderr

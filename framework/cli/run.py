@@ -100,7 +100,25 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
         resolve(spec)
     except InkmotionError as exc:
         fail(exc)
+    if config is not None:
+        _say_changed_inputs(config, spec)
     execute(spec, out_dir, record, as_json, force)
+
+
+def _say_changed_inputs(config: Path, spec: Any) -> None:
+    """A warning for each input file whose bytes differ from those ``config`` (a job.json)
+    records: the rerun cannot reproduce its result."""
+    import json
+
+    from inkmotion.jobs.shell import changed_inputs
+
+    try:
+        recorded = json.loads(Path(config).read_text())
+    except (OSError, ValueError):
+        return
+    if isinstance(recorded, dict):
+        for said in changed_inputs(recorded, spec):
+            typer.secho(f"warning: {said}", fg="yellow", err=True)
 
 
 _EXTRA = [

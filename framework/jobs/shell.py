@@ -400,13 +400,64 @@ def _alone(job: Together, record: bool, every: int | None, every_s: float | None
         return exc
 
 
+def input_files(spec: JobSpec) -> dict[str, dict[str, str]]:
+    """The job's inputs that are files (a ``sample:NAME`` its shipped file), each with its
+    path and the SHA-256 of its bytes: job.json says which bytes a result was made from,
+    and ``run --config`` says when the file has changed since (:func:`changed_inputs`)."""
+    import hashlib
+
+    from inkmotion.samples import locate
+
+    out = {}
+    for name, source in spec.inputs.items():
+        path = Path(locate(source)) if source.startswith("sample:") else Path(source)
+        try:
+            if path.is_file():
+                out[name] = {"path": str(path),
+                             "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+        except (OSError, ValueError):
+            continue
+    return out
+
+
+def changed_inputs(job_json: dict[str, Any], spec: JobSpec) -> list[str]:
+    """One sentence per input file of ``spec`` whose bytes differ from those the job.json
+    ``job_json`` recorded (its ``input_files``): a rerun of it may not give its result."""
+    recorded = job_json.get("input_files") or {}
+    now = input_files(spec)
+    said = []
+    for name, was in recorded.items():
+        if not isinstance(was, dict) or name not in now or now[name]["path"] != was.get("path"):
+            continue
+        if now[name]["sha256"] != was.get("sha256"):
+            said.append(f"{was['path']} has changed since this job.json was written (its "
+                        "bytes differ from those it records), so this run may not "
+                        "reproduce the recorded result")
+    return said
+
+
+def machine() -> dict[str, Any]:
+    """What of this machine a CPU result depends on beyond the thread count: torch's CPU
+    code path (``ATEN_CPU_CAPABILITY``: its vector kernels round some functions
+    differently, so the last bits of a fit, and rarely a plan edit, follow it)."""
+    import torch
+
+    try:
+        capability = torch.backends.cpu.get_cpu_capability()
+    except (AttributeError, RuntimeError):
+        capability = None
+    return {"cpu_capability": capability}
+
+
 def record_job(folder: Path, spec: JobSpec, report: dict) -> None:
     """Write job.json (the spec, versions, seed, and the report's ``provenance``: what the
     result was made with beyond the spec, e.g. ``"clip_weights": "random"``) and report.json
     into ``folder``."""
     used = plugin_packages(spec)
+    files = input_files(spec)
     job = {"spec": spec.to_dict(), "versions": {**versions(), **({"plugins": used} if used
                                                                   else {})},
+           "machine": machine(), **({"input_files": files} if files else {}),
            "seed": spec.seed, **report.get("provenance", {})}
     (folder / "job.json").write_text(dumps(job, indent=1))
     (folder / "report.json").write_text(dumps(report, indent=1))
