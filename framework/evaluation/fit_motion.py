@@ -82,6 +82,8 @@ def recorded_columns(human: dict[str, Any]) -> dict[str, Any]:
     """The benchmark's columns of a recorded agreement
     (:func:`inkmotion.kinds.evaluate.recorded_agreement`)."""
     return {"recorded_peaks": human["recorded_peaks"], "matched_peaks": human["matched_peaks"],
+            "matched_by_chance": human.get("matched_by_chance"),
+            "peaks_f1": human.get("peaks_f1"),
             "recorded_duration_s": human["recorded_duration_s"],
             "peak_offset": human["mean_position_offset"]}
 
