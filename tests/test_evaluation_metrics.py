@@ -307,7 +307,8 @@ def test_item_figures_of_a_timed_tag(tmp_path):
     Drawing((traces.width, traces.height), plans).save(tmp_path / "plan.json")
     human, note = recorded_agreement(source, Drawing.load(tmp_path / "plan.json"),
                                      tmp_path / "human_speeds.png")
-    assert note is None and human["time_unit"] == "s"
+    assert human["time_unit"] == "s"
+    assert "a median of 7 time stamps each, too few" in note  # the paper's 49873 is sparse
     got = item_figures(tmp_path, human)
     print(got)
     assert got["fit_speed_peaks"] >= len(plans)
@@ -374,3 +375,25 @@ def test_matched_peaks_are_set_against_chance_and_extra_fit_peaks_lower_the_f1()
                               [(np.stack([arc, 0 * arc], 1), wiggly)])["total"]
     assert total["peaks_f1"] == pytest.approx(2 * total["matched_peaks"]
                                               / (total["recorded_peaks"] + total["fit_peaks"]))
+
+
+def test_a_recording_too_sparse_for_speed_peaks_says_so(tmp_path):
+    """The EyeWriter tags hold 3 to 6 time stamps a stroke: their 'recorded peaks' were
+    matched no better than chance, and nothing said why."""
+    import torch
+
+    from inkmotion.initialisers.dce import dce
+    from inkmotion.kinds.read import read_input
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+
+    def agreement(name: str, points: int) -> dict:
+        line = [(0.1 + 0.8 * i / (points - 1), 0.5 + 0.1 * math.sin(3 * i / points), 40.0 * i)
+                for i in range(points)]
+        source = _gml(tmp_path / name, [line])
+        traces = read_input(source).fit_to_canvas(350)
+        plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
+        return H.human_agreement_of_traces(read_input(source), Drawing(
+            (traces.width, traces.height), plans), tmp_path / f"{name}.png", source)
+
+    assert "a median of 4 time stamps each, too few" in agreement("sparse.gml", 4)["note"]
+    assert "note" not in agreement("dense.gml", 40)

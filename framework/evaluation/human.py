@@ -78,6 +78,11 @@ def times_in_seconds(times: list[np.ndarray], unit: str = "auto"
     return [np.asarray(t, dtype=np.float64) / scale for t in times], unit
 
 
+#: a recording whose strokes hold fewer distinct time stamps than this (the median) has
+#: no speed peaks to compare: a bell needs a few samples, a stroke holds several bells
+#: (the EyeWriter tags of the development set: 3 to 6; the paper's 49867: 34)
+SPARSE_STAMPS = 8
+
 #: a stroke whose time stamps step back by more than this many times the recording's median
 #: step has a clock that jumped, not the jitter of a quantised one
 JUMP_STEPS = 3.0
@@ -394,6 +399,12 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
                          f"{len(paired)} strokes ({_strokes(jumped)}; by up to "
                          f"{worst * 1000:.0f} ms), so they are left out of the speed "
                          "comparison")
+        stamps = [int(_new_stamps(times[i]).sum()) for i in kept]
+        if stamps and float(np.median(stamps)) < SPARSE_STAMPS:
+            notes.append(f"{source}: its strokes hold a median of {np.median(stamps):g} time "
+                         "stamps each, too few for a speed profile with a hand's peaks, so "
+                         "the peak comparison says little (a recording sampled at 50 Hz or "
+                         "more has dozens)")
         if traces.meta.get("times_filled"):
             filled = int(traces.meta["times_filled"])
             notes.append(f"{source}: {filled} of its points {'carries' if filled == 1 else 'carry'}"
