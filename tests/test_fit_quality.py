@@ -48,7 +48,10 @@ def _meets_the_goals(report: dict) -> None:
     assert report["chamfer_mean_px"] <= 0.6, report["chamfer_mean_px"]
     assert report["chamfer_max_px"] <= 8.0, report["chamfer_max_px"]
     assert report["delta_t_at_clamp"] == 0 and report["pinned_overlaps"] == []
-    assert report["quality"] == "good" and "warnings" not in report
+    assert report["quality"] == "good"
+    # no warning about the fit (one about the recording's time stamps may be there: the
+    # EyeWriter tags hold too few for speed peaks)
+    assert [w for w in report.get("warnings", []) if "time stamps" not in w] == []
     for stage in report["stages"]:  # every edit says whether it was kept and why
         if "edit" in stage:
             assert isinstance(stage["edit"]["kept"], bool) and stage["edit"]["why"]
