@@ -24,6 +24,9 @@ def read_json(path: str | Path, error: type[InkmotionError], what: str = "file")
         raise error(f"{path}: the {what} cannot be read ({exc.strerror}).") from exc
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise error(f"{path}: is not valid JSON ({exc}).") from exc
+    except RecursionError as exc:
+        raise error(f"{path}: its JSON is nested too deeply to be a {what}; give the "
+                    f"{what} inkmotion wrote.") from exc
 
 
 def json_ready(value: Any, default: Callable[[Any], Any] | None = None) -> Any:

@@ -397,3 +397,28 @@ def test_a_recording_too_sparse_for_speed_peaks_says_so(tmp_path):
 
     assert "a median of 4 time stamps each, too few" in agreement("sparse.gml", 4)["note"]
     assert "note" not in agreement("dense.gml", 40)
+
+
+def test_a_stroke_whose_time_stamps_span_ages_is_left_out(tmp_path):
+    """Fuzzing: one <t> of 1e12 asked for petabytes of speed samples (a traceback), 1e9
+    hung the fit's end. Such a stroke is left out of the comparison, and said."""
+    import torch
+
+    from inkmotion.initialisers.dce import dce
+    from inkmotion.kinds.read import read_input
+    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
+
+    wave = [(0.1 + 0.01 * i, 0.5 + 0.1 * math.sin(i / 5)) for i in range(60)]
+    low = [(x, y + 0.3) for x, y in wave]
+    wild = [5.0 * i for i in range(60)]
+    wild[30] = 1e12
+    source = _gml(tmp_path / "wild.gml", [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
+                                          for st, ts in zip((wave, low),
+                                                            ([5.0 * i for i in range(60)], wild),
+                                                            strict=True)])
+    traces = read_input(source).fit_to_canvas(350)
+    plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
+    got = H.human_agreement_of_traces(read_input(source), Drawing(
+        (traces.width, traces.height), plans), tmp_path / "wild.png", source)
+    assert got["strokes_paired"] == 1 and got["strokes_untimed"] == 1
+    assert "span more than 1 h (stroke 2)" in got["note"]

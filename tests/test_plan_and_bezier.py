@@ -152,3 +152,12 @@ def test_end_time_is_differentiable() -> None:
     assert float(g[0]) == 0.0
     torch.testing.assert_close(g[1:], plan.T[1:])
     assert math.isfinite(float(plan.end_time.detach()))
+
+
+def test_a_plan_file_nested_too_deeply_is_one_sentence(tmp_path):
+    """Fuzzing: a plan.json of 100 000 nested lists raised RecursionError out of evaluate
+    and plot."""
+    deep = tmp_path / "plan.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(InputError, match="nested too deeply to be a plan"):
+        Drawing.load(deep)

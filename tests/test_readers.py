@@ -618,3 +618,26 @@ def test_an_svg_whose_every_path_is_clipped_away_says_so(tmp_path: Path):
                  '<path d="M50 50 L90 90" stroke="black" clip-path="url(#c)"/></svg>')
     with pytest.raises(InputError, match="draw nothing"):
         read_svg(str(f))
+
+
+def test_inputs_that_would_hang_or_exhaust_memory_are_one_sentence(tmp_path: Path):
+    """Found by fuzzing: 100 000 two-point strokes (within the point limit) took minutes to
+    count and then the fit's memory; 10 000 nested groups raised Python's RecursionError
+    into the message; a pipe was 'no such file'."""
+    import os
+
+    from inkmotion.geometry.traces import MAX_STROKES, Traces
+
+    many = [np.array([[i, 0.0], [i, 1.0]]) for i in range(MAX_STROKES + 1)]
+    with pytest.raises(InputError, match=f"{MAX_STROKES + 1} strokes is more than the limit"):
+        Traces(many, source="many").validated()
+    deep = tmp_path / "deep.svg"
+    deep.write_text('<svg xmlns="http://www.w3.org/2000/svg">' + "<g>" * 5000
+                    + '<path d="M0 0 L9 9" stroke="black"/>' + "</g>" * 5000 + "</svg>")
+    with pytest.raises(InputError, match="nested too deeply to read") as err:
+        read_svg(str(deep))
+    assert "RecursionError" not in str(err.value)
+    fifo = tmp_path / "pipe.gml"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="is not a regular file"):
+        read_gml(str(fifo))

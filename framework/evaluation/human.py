@@ -88,6 +88,18 @@ SPARSE_STAMPS = 8
 JUMP_STEPS = 3.0
 
 
+#: a stroke whose time stamps span more than this (s) is no pen stroke: a stamp of
+#: another clock or a corrupted one (a span of 10^12 s asked for petabytes of samples)
+MAX_STROKE_S = 3600.0
+
+
+def _plausible_span(t: np.ndarray) -> bool:
+    """Whether a stroke's times ``t`` (s) are finite and span at most
+    :data:`MAX_STROKE_S`."""
+    t = np.asarray(t, dtype=np.float64)
+    return bool(np.isfinite(t).all()) and float(t.max() - t.min()) <= MAX_STROKE_S
+
+
 def clock_jumps(times: list[np.ndarray]) -> dict[int, float]:
     """The strokes whose time stamps (in s, one array per stroke) step back by more than
     :data:`JUMP_STEPS` × the recording's median forward step, and each one's largest step
@@ -159,6 +171,8 @@ def recorded_speed(stroke: np.ndarray, t: np.ndarray, *, rate: float = 200.0,
         raise ValueError(f"{len(stroke)} points but {len(t)} times")
     if unit == "ms" or (unit == "auto" and time_unit([t]) == "ms"):
         t = t / 1000.0
+    if not _plausible_span(t):
+        raise ValueError(f"the stroke's times are not finite or span over {MAX_STROKE_S:g} s")
     anchor_t, anchor_s = time_anchors(arc_length(stroke), t)
     if len(anchor_t) < 2:
         raise ValueError("the stroke has fewer than two distinct times")
@@ -366,7 +380,8 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
     apart = _apart(traces.strokes, [s.positions for s in samples])
     index = _pair(traces.strokes, [s.positions for s in samples])
     paired = [i for i, j in enumerate(index) if j >= 0]
-    untimed = [i for i in paired if not advances(times[i])]  # one time: no speed
+    untimed = [i for i in paired if not advances(times[i])  # one time: no speed
+               or not _plausible_span(times[i])]
     back = clock_jumps(times)
     jumped = [i for i in paired if i in back and i not in untimed]
     kept = [i for i in paired if i not in untimed and i not in jumped]
@@ -391,8 +406,9 @@ def human_agreement_of_traces(traces: Traces, drawing: Any, png: str | Path, sou
         if untimed:
             notes.append(f"{source}: {len(untimed)} of its {len(paired)} strokes have "
                          "time stamps that do not advance (all the same, or running "
-                         f"backwards: {_strokes(untimed)}), so they are left out of the "
-                         "speed comparison")
+                         f"backwards) or span more than {MAX_STROKE_S / 3600:g} h "
+                         f"({_strokes(untimed)}), so they are left out of the speed "
+                         "comparison")
         if jumped:
             worst = max(back[i] for i in jumped)
             notes.append(f"{source}: the clock runs backwards inside {len(jumped)} of its "

@@ -15,10 +15,15 @@ MAX_FILE_BYTES = 50 * 1024 * 1024
 def missing_file(source: str, what: str = "drawing") -> str | None:
     """The sentence saying why ``source`` is not a file to read (a folder, or nothing at
     that path), or None when it is one; ``what`` names the input (the drawing, a plan)."""
+    import os
+
     path = Path(source)
     if path.is_dir():
         return f"{source}: is a folder, not a file; give the {what}'s file."
     if not path.is_file():
+        if os.path.lexists(source):  # a pipe, a device, a link to one or to nothing
+            return (f"{source}: is not a regular file (a pipe, a device, or a link that "
+                    f"leads to none); give the {what}'s file.")
         return f"{source}: no such file; check the path."
     return None
 
@@ -50,6 +55,9 @@ def reader_boundary(source: str, what: str, hint: str) -> Iterator[None]:
         yield
     except InputError:
         raise
+    except RecursionError as exc:  # a document nested thousands of levels deep
+        raise InputError(f"{source}: the {what} is nested too deeply to read (thousands of "
+                         f"levels of groups or references); {hint}") from exc
     except Exception as exc:  # no raw parser error escapes a reader
         raise InputError(
             f"{source}: the {what} could not be read ({type(exc).__name__}: {exc}); {hint}"

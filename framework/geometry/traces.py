@@ -10,6 +10,9 @@ from inkmotion.errors import InputError
 
 #: readers refuse inputs with more points than this (all strokes together)
 MAX_POINTS = 200_000
+#: and with more strokes than this: each is a motor plan of its own, whose fit, at a
+#: few MB each, would not fit in a machine's memory long before the point limit
+MAX_STROKES = 5_000
 #: a dot (a stroke of one point, a tap of the pen) is drawn as a stroke this share of
 #: the drawing's longer side long, rightwards: at 350 px, a pen's dab 1 px long
 DOT_SHARE = 0.003
@@ -47,6 +50,12 @@ class Traces:
             raise InputError(
                 f"{self.source}: {self.n_points} points is more than the limit of {MAX_POINTS}; "
                 "simplify the drawing or split it into several inputs."
+            )
+        if len(self.strokes) > MAX_STROKES:
+            raise InputError(
+                f"{self.source}: {len(self.strokes)} strokes is more than the limit of "
+                f"{MAX_STROKES}; join or simplify them, or split the drawing into several "
+                "inputs."
             )
         kept, dots = [], []
         for s in self.strokes:
