@@ -641,3 +641,25 @@ def test_inputs_that_would_hang_or_exhaust_memory_are_one_sentence(tmp_path: Pat
     os.mkfifo(fifo)
     with pytest.raises(InputError, match="is not a regular file"):
         read_gml(str(fifo))
+
+
+def test_svgs_whose_parse_would_hang_are_refused_before_it(tmp_path: Path):
+    """Fuzzing: ten <use> of ten of ten … (a 2-KB file, ten million shapes) and a 30-MB
+    attribute (the XML parser's time grows with its square) ran for minutes."""
+    fan = tmp_path / "fan.svg"
+    levels = ['<g id="l0"><path d="M0 0 L10 10" stroke="black"/></g>'] + [
+        f'<g id="l{k}">' + f'<use href="#l{k - 1}"/>' * 10 + "</g>" for k in range(1, 8)]
+    fan.write_text('<svg xmlns="http://www.w3.org/2000/svg"><defs>' + "".join(levels)
+                   + '</defs><use href="#l7"/></svg>')
+    with pytest.raises(InputError, match="references expand to more than 1,000,000"):
+        read_svg(str(fan))
+    loop = tmp_path / "loop.svg"
+    loop.write_text('<svg xmlns="http://www.w3.org/2000/svg"><g id="a"><use href="#b"/></g>'
+                    '<g id="b"><use href="#a"/></g></svg>')
+    with pytest.raises(InputError, match="refers, through others, to itself"):
+        read_svg(str(loop))
+    long = tmp_path / "long.svg"
+    long.write_text('<svg xmlns="http://www.w3.org/2000/svg"><path stroke="black" d="M0 0'
+                    + " L1 1" * 1_000_000 + '"/></svg>')
+    with pytest.raises(InputError, match="an attribute of 5 MB is more than the 4 MB"):
+        read_svg(str(long))

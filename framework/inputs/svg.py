@@ -150,11 +150,68 @@ def _document(path: Any, source: str) -> Any:
                              f"split it.")
     else:
         data = Path(path).read_bytes()
+    _refuse_blowups(data, source)
     if (b"<symbol" not in data and b'%"' not in data and b"%'" not in data
             and b"<style" not in data and b"<switch" not in data
             and b"clip-path" not in data):
         return io.BytesIO(data)  # read once: svgelements parses these bytes
     return io.BytesIO(_as_svg_means(data))
+
+
+#: the longest attribute value the reader parses (bytes): the XML parser's time grows with
+#: the square of a value's length (a 30-MB attribute took minutes)
+MAX_ATTRIBUTE_BYTES = 4 * 2**20
+#: the most elements a document may expand to through its ``<use>`` references (each
+#: ``<use>`` drawing a copy of what it references: ten of ten of ten … is a billion)
+MAX_EXPANDED = 1_000_000
+
+
+def _refuse_blowups(data: bytes, source: str) -> None:
+    """Refuse, before svgelements parses it, an SVG whose parse would hang or exhaust the
+    memory: an attribute value over :data:`MAX_ATTRIBUTE_BYTES`, or ``<use>`` references
+    that expand to more than :data:`MAX_EXPANDED` elements (or reference themselves)."""
+    for quote in (b'"', b"'"):
+        start = data.find(b"=" + quote)
+        while start != -1:
+            end = data.find(quote, start + 2)
+            if end == -1:
+                break
+            if end - start > MAX_ATTRIBUTE_BYTES:
+                raise InputError(f"{source}: an attribute of {(end - start) / 2**20:.0f} MB is "
+                                 f"more than the {MAX_ATTRIBUTE_BYTES // 2**20} MB the reader "
+                                 "takes; simplify the drawing (a path of millions of points?).")
+            start = data.find(b"=" + quote, end + 1)
+    if b"<use" not in data:
+        return
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.fromstring(data)
+    except ET.ParseError:
+        return  # svgelements says what is wrong with it
+    by_id = {el.get("id"): el for el in root.iter() if el.get("id")}
+    sizes: dict[int, int] = {}
+
+    def size(el: Any, seen: frozenset[int]) -> int:
+        key = id(el)
+        if key in seen:
+            raise InputError(f"{source}: a <use> refers, through others, to itself; remove "
+                             "the loop.")
+        if key not in sizes:
+            total, seen = 1, seen | {key}
+            for child in el:
+                total += size(child, seen)
+            if isinstance(el.tag, str) and el.tag.rsplit("}", 1)[-1] == "use":
+                href = next((v for k, v in el.attrib.items() if k.endswith("href")), "")
+                target = by_id.get(href.lstrip("#"))
+                if target is not None:
+                    total += size(target, seen)
+            sizes[key] = min(total, MAX_EXPANDED + 1)
+        return sizes[key]
+
+    if size(root, frozenset()) > MAX_EXPANDED:
+        raise InputError(f"{source}: its <use> references expand to more than "
+                         f"{MAX_EXPANDED:,} elements; give the drawing with fewer copies.")
 
 
 #: a shape's length attributes that are shares of the viewport's width, and of its height
