@@ -219,27 +219,39 @@ def _gml(path: Path, strokes: list[list[tuple[float, float, float]]]) -> str:
     return str(path)
 
 
-def test_time_stamps_that_do_not_advance_give_no_recorded_speed(tmp_path):
-    """Some exporters stamp every point 0, or their clocks run backwards: such a stroke
-    has no recorded speed, so it is left out of the comparison (and a recording with no
-    other is said to have none), not a ValueError at the end of a fit."""
+def _agreement_of(tmp_path: Path, name: str,
+                  strokes: list[list[tuple[float, float, float]]]) -> dict:
+    """The recorded speed agreement of a GML of ``strokes`` of (x, y, t) points with a DCE
+    plan of the same strokes (:func:`H.human_agreement_of_traces`)."""
     import torch
 
     from inkmotion.initialisers.dce import dce
     from inkmotion.kinds.read import read_input
     from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
 
+    source = _gml(tmp_path / name, strokes)
+    traces = read_input(source).fit_to_canvas(350)
+    plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
+    drawing = Drawing((traces.width, traces.height), plans)
+    return H.human_agreement_of_traces(read_input(source), drawing, tmp_path / f"{name}.png",
+                                       source)
+
+
+def _timed(lines: tuple, stamps: list[list[float]]) -> list[list[tuple[float, float, float]]]:
+    """(x, y, t) strokes of the polylines ``lines`` with the times ``stamps``."""
+    return [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
+            for st, ts in zip(lines, stamps, strict=True)]
+
+
+def test_time_stamps_that_do_not_advance_give_no_recorded_speed(tmp_path):
+    """Some exporters stamp every point 0, or their clocks run backwards: such a stroke
+    has no recorded speed, so it is left out of the comparison (and a recording with no
+    other is said to have none), not a ValueError at the end of a fit."""
     wave = [(0.1 + 0.01 * i, 0.5 + 0.1 * math.sin(i / 5)) for i in range(60)]
     low = [(x, y + 0.3) for x, y in wave]
 
     def agreement(name: str, stamps: list[list[float]]) -> dict:
-        source = _gml(tmp_path / name, [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
-                                        for st, ts in zip((wave, low), stamps, strict=True)])
-        traces = read_input(source).fit_to_canvas(350)
-        plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
-        drawing = Drawing((traces.width, traces.height), plans)
-        return H.human_agreement_of_traces(read_input(source), drawing,
-                                           tmp_path / f"{name}.png", source)
+        return _agreement_of(tmp_path, name, _timed((wave, low), stamps))
 
     assert not H.advances(np.zeros(5)) and not H.advances(np.linspace(1, 0, 5))
     assert H.advances(np.array([0.0, 0.0, 0.1]))
@@ -330,12 +342,6 @@ def test_a_clock_that_runs_back_inside_a_stroke_leaves_it_out_and_says_so(tmp_pa
     """A clock that jumped back 400 ms mid-stroke drew a false plateau of full speed in
     human_speeds.png and counted it as a recorded peak, silently; quantised stamps and
     jitter of a few ms are no jump."""
-    import torch
-
-    from inkmotion.initialisers.dce import dce
-    from inkmotion.kinds.read import read_input
-    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
-
     wave = [(0.1 + 0.01 * i, 0.5 + 0.1 * math.sin(i / 5)) for i in range(60)]
     low = [(x, y + 0.3) for x, y in wave]
     steady = [5.0 * i for i in range(60)]
@@ -343,13 +349,7 @@ def test_a_clock_that_runs_back_inside_a_stroke_leaves_it_out_and_says_so(tmp_pa
     jitter = [5.0 * i + (2.0 if i % 2 else -2.0) for i in range(60)]
 
     def agreement(name: str, stamps: list[list[float]]) -> dict:
-        source = _gml(tmp_path / name, [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
-                                        for st, ts in zip((wave, low), stamps, strict=True)])
-        traces = read_input(source).fit_to_canvas(350)
-        plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
-        drawing = Drawing((traces.width, traces.height), plans)
-        return H.human_agreement_of_traces(read_input(source), drawing,
-                                           tmp_path / f"{name}.png", source)
+        return _agreement_of(tmp_path, name, _timed((wave, low), stamps))
 
     got = agreement("jump.gml", [steady, jumped])
     assert got["time_unit"] == "ms" and got["strokes_paired"] == 1
@@ -380,20 +380,10 @@ def test_matched_peaks_are_set_against_chance_and_extra_fit_peaks_lower_the_f1()
 def test_a_recording_too_sparse_for_speed_peaks_says_so(tmp_path):
     """The EyeWriter tags hold 3 to 6 time stamps a stroke: their 'recorded peaks' were
     matched no better than chance, and nothing said why."""
-    import torch
-
-    from inkmotion.initialisers.dce import dce
-    from inkmotion.kinds.read import read_input
-    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
-
     def agreement(name: str, points: int) -> dict:
         line = [(0.1 + 0.8 * i / (points - 1), 0.5 + 0.1 * math.sin(3 * i / points), 40.0 * i)
                 for i in range(points)]
-        source = _gml(tmp_path / name, [line])
-        traces = read_input(source).fit_to_canvas(350)
-        plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
-        return H.human_agreement_of_traces(read_input(source), Drawing(
-            (traces.width, traces.height), plans), tmp_path / f"{name}.png", source)
+        return _agreement_of(tmp_path, name, [line])
 
     assert "a median of 4 time stamps each, too few" in agreement("sparse.gml", 4)["note"]
     assert "note" not in agreement("dense.gml", 40)
@@ -402,23 +392,11 @@ def test_a_recording_too_sparse_for_speed_peaks_says_so(tmp_path):
 def test_a_stroke_whose_time_stamps_span_ages_is_left_out(tmp_path):
     """Fuzzing: one <t> of 1e12 asked for petabytes of speed samples (a traceback), 1e9
     hung the fit's end. Such a stroke is left out of the comparison, and said."""
-    import torch
-
-    from inkmotion.initialisers.dce import dce
-    from inkmotion.kinds.read import read_input
-    from inkmotion.sigma_lognormal.plan import Drawing, MotorPlan
-
     wave = [(0.1 + 0.01 * i, 0.5 + 0.1 * math.sin(i / 5)) for i in range(60)]
     low = [(x, y + 0.3) for x, y in wave]
     wild = [5.0 * i for i in range(60)]
     wild[30] = 1e12
-    source = _gml(tmp_path / "wild.gml", [[(x, y, t) for (x, y), t in zip(st, ts, strict=True)]
-                                          for st, ts in zip((wave, low),
-                                                            ([5.0 * i for i in range(60)], wild),
-                                                            strict=True)])
-    traces = read_input(source).fit_to_canvas(350)
-    plans = [MotorPlan.from_points(dce(s), dtype=torch.float64) for s in traces.strokes]
-    got = H.human_agreement_of_traces(read_input(source), Drawing(
-        (traces.width, traces.height), plans), tmp_path / "wild.png", source)
+    got = _agreement_of(tmp_path, "wild.gml",
+                        _timed((wave, low), [[5.0 * i for i in range(60)], wild]))
     assert got["strokes_paired"] == 1 and got["strokes_untimed"] == 1
     assert "span more than 1 h (stroke 2)" in got["note"]
