@@ -1335,3 +1335,16 @@ def test_the_shipped_brush_scan_is_what_the_generator_draws() -> None:
     shipped = cv2.imread(path_of("brush-scan"), cv2.IMREAD_UNCHANGED)
     assert shipped.dtype == np.uint8 and shipped.ndim == 2
     assert np.array_equal(shipped, brush_scan())
+
+
+def test_one_inf_or_nan_pixel_of_a_float_picture_blanks_nothing(tmp_path: Path) -> None:
+    """Fuzzing: a float TIFF with one NaN and one inf pixel was scaled by the inf, every
+    other pixel became 0, and the picture was refused as having no ink."""
+    grey = page().astype(np.float32) / 255.0
+    cv2.line(grey, (50, 150), (350, 150), 0.1, 6)
+    grey[0, 0], grey[0, 1] = np.nan, np.inf
+    path = tmp_path / "float.tiff"
+    Image.fromarray(grey, mode="F").save(path)
+    traces = trace_picture(read_picture(str(path)))
+    (stroke,) = traces.strokes
+    assert stroke[:, 0].min() < 60 and stroke[:, 0].max() > 340

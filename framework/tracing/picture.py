@@ -315,15 +315,16 @@ def _grey_array(img: object) -> np.ndarray:
     elif a.dtype in (np.uint16, np.int32, np.uint32, np.int16):
         top = 65535.0 if a.max() > 255 else 255.0
         out = a.astype(np.float32) / top
-    else:
+    else:  # float: scaled by its largest finite value (one inf pixel blanked the rest)
         out = a.astype(np.float32)
-        hi = float(np.nanmax(out)) if out.size else 1.0
+        finite = out[np.isfinite(out)]
+        hi = float(finite.max()) if finite.size else 1.0
         if hi > 1.0:
             out = out / hi
     if out.ndim != 2:
         raise InputError("the picture has an unexpected layout of channels; save it as a "
                          "grey or colour PNG.")
-    return np.clip(np.nan_to_num(out, nan=1.0), 0.0, 1.0)
+    return np.clip(np.nan_to_num(out, nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
 
 
 def read_picture(source: str, invert: bool = False) -> Picture:
