@@ -179,12 +179,14 @@ def test_a_killed_jobs_staging_folder_is_removed_by_the_next_job(tmp_path: Path)
         host = left.name.split("-")[1]
         running = tmp_path / f"job.partial-{host}-{sleeper.pid}-0000"
         elsewhere = tmp_path / "job.partial-otherhost-1-0000"
+        other_namespace = tmp_path / f"job.partial-{host}1-1-0000"  # a container's
         running.mkdir()
         elsewhere.mkdir()
+        other_namespace.mkdir()
         with StagingDir(final) as stage:
             (stage.path / "new.txt").write_text("new")
         assert not left.exists()
-        assert running.exists() and elsewhere.exists()
+        assert running.exists() and elsewhere.exists() and other_namespace.exists()
         assert sorted(p.name for p in final.iterdir()) == ["new.txt"]
     finally:
         sleeper.kill()

@@ -30,8 +30,15 @@ def _sibling(final: Path, tag: str) -> Path:
 
 
 def _owner_tag() -> str:
-    """``<host>-<pid>`` of this process, the host's name without dashes or dots."""
+    """``<host>-<pid>`` of this process: the host's name without dashes or dots, and the
+    inode of its PID namespace where Linux has one (containers that share a host name
+    and a volume each see only their own processes: a live job of another namespace
+    must never look dead)."""
     host = re.sub(r"[^A-Za-z0-9]", "", socket.gethostname()) or "host"
+    try:
+        host += f"ns{os.stat('/proc/self/ns/pid').st_ino}"
+    except OSError:
+        pass
     return f"{host}-{os.getpid()}"
 
 
@@ -48,8 +55,9 @@ def _alive(pid: int) -> bool:
 
 def remove_stale_staging(final: Path) -> list[Path]:
     """Remove the staging folders ``FINAL.partial-<host>-<pid>-<random>`` of processes of
-    this host that no longer run (killed before they could clean up); return them.
-    Another host's, a running process's and an unnamed owner's are left alone."""
+    this host (and PID namespace) that no longer run (killed before they could clean
+    up); return them. Another host's or namespace's, a running process's and an unnamed
+    owner's are left alone."""
     host, _ = _owner_tag().rsplit("-", 1)
     removed = []
     for folder in final.parent.glob(f"{glob.escape(final.name)}.partial-*"):
