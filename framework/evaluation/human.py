@@ -54,14 +54,19 @@ MS_THRESHOLD = 100.0
 TOLERANCE = 0.1
 
 
+def _forward_steps(times: list[np.ndarray]) -> np.ndarray:
+    """Every step forward between successive time stamps of the strokes ``times``."""
+    steps = np.concatenate([np.diff(t) for t in times if len(t) > 1] or [np.zeros(0)])
+    return steps[steps > 0]
+
+
 def time_unit(times: list[np.ndarray]) -> str:
     """The unit of ``times`` (one array per stroke): "ms" when the median step between
     successive distinct time stamps is at least :data:`MS_STEP`, else "s" (module
     docstring); with no such step, "ms" when the longest stroke lasts more than
     :data:`MS_THRESHOLD`."""
     arrays = [np.asarray(t, dtype=np.float64) for t in times]
-    steps = np.concatenate([np.diff(t) for t in arrays if len(t) > 1] or [np.zeros(0)])
-    steps = steps[steps > 0]
+    steps = _forward_steps(arrays)
     if len(steps):
         return "ms" if float(np.median(steps)) >= MS_STEP else "s"
     longest = max((float(np.nanmax(t) - np.nanmin(t)) for t in arrays if len(t)), default=0.0)
@@ -104,8 +109,7 @@ def clock_jumps(times: list[np.ndarray]) -> dict[int, float]:
     """The strokes whose time stamps (in s, one array per stroke) step back by more than
     :data:`JUMP_STEPS` × the recording's median forward step, and each one's largest step
     back, s: their recorded speed would show a false plateau where the clock ran back."""
-    forward = np.concatenate([np.diff(t) for t in times if len(t) > 1] or [np.zeros(0)])
-    forward = forward[forward > 0]
+    forward = _forward_steps(times)
     if not len(forward):
         return {}
     limit = JUMP_STEPS * float(np.median(forward))

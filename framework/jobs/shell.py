@@ -410,7 +410,7 @@ def input_files(spec: JobSpec) -> dict[str, dict[str, str]]:
 
     out = {}
     for name, source in spec.inputs.items():
-        path = Path(locate(source)) if source.startswith("sample:") else Path(source)
+        path = Path(locate(source))  # a path or text:WORD comes back as it is
         try:
             if path.is_file():
                 out[name] = {"path": str(path),
