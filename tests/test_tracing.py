@@ -1036,6 +1036,61 @@ def test_a_huge_picture_is_reduced_and_said(tmp_path: Path) -> None:
     assert picture.mask.size <= WORK_PIXELS and "reduced" in picture.notes[0]
 
 
+@pytest.mark.parametrize("mode", ["1", "P", "P-transparent", "LA", "RGBA", "I;16"])
+def test_a_huge_picture_of_any_mode_is_reduced_as_its_tones(tmp_path: Path, mode: str) -> None:
+    """Palette indices, bilevel pixels and 16-bit greys are averaged as tones (Pillow's
+    reduce refuses the last), and alpha over paper whose hidden colour is white: the same
+    line, the same width as a 2× smaller grey picture of it."""
+    w, h = 2800, 2000
+    ink = np.zeros((h, w), bool)
+    ink[980:1020, 200:2600] = True
+    if mode == "I;16":
+        img = Image.fromarray(np.where(ink, 3000, 60000).astype(np.uint16))
+    elif mode in ("LA", "RGBA"):
+        rgba = np.zeros((h, w, 4), np.uint8)
+        rgba[..., :3] = 255  # white hidden under the transparent paper
+        rgba[ink] = (20, 20, 20, 255)
+        img = Image.fromarray(rgba, "RGBA").convert(mode)
+    elif mode == "P-transparent":  # index 0: white, transparent; 1: dark ink
+        img = Image.fromarray(ink.astype(np.uint8), "P")
+        img.putpalette([255, 255, 255, 20, 20, 20])
+        img.info["transparency"] = 0
+    else:
+        img = Image.fromarray(np.where(ink, 20, 235).astype(np.uint8))
+        img = img.convert("1") if mode == "1" else img.convert("P")
+    path = tmp_path / "huge.png"
+    img.save(path, **({"transparency": 0} if mode == "P-transparent" else {}))
+    picture = read_picture(str(path))
+    assert picture.scale == pytest.approx(0.5) and "reduced" in picture.notes[0]
+    rows = np.flatnonzero(picture.mask.any(axis=1))
+    assert 489 <= rows.min() <= 491 and 509 <= rows.max() <= 511, (rows.min(), rows.max())
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads Linux's VmHWM")
+def test_a_huge_picture_takes_little_more_memory_than_its_pixels(tmp_path: Path) -> None:
+    """Reduced a band at a time before its colour is converted: the decode's peak memory
+    stays near the decoded RGBA (a 400-MP scan took 10 GB, six copies, when it was
+    flattened at full size)."""
+    w, h = 8000, 6000  # 192 MB decoded: flattening at the working size takes ~100 MB
+    rgba = np.zeros((h, w, 4), np.uint8)
+    rgba[2900:2960, 300:7700, 3] = 255
+    path = tmp_path / "big.png"
+    Image.fromarray(rgba, "RGBA").save(path, compress_level=1)
+    script = ("import re, sys\n"  # the peak of this process's own memory (ru_maxrss
+              # would hold the forking pytest's)
+              "def peak():\n"
+              "    status = open('/proc/self/status').read()\n"
+              "    return int(re.search(r'VmHWM:\\s+(\\d+) kB', status).group(1)) * 1024\n"
+              "from inkmotion.tracing.picture import decode\n"
+              "before = peak()\n"
+              "decode(sys.argv[1])\n"
+              "print(peak() - before)")
+    grown = int(subprocess.run([sys.executable, "-c", script, str(path)], check=True,
+                               capture_output=True, text=True).stdout.split()[-1])
+    decoded = w * h * 4
+    assert grown < 2 * decoded, f"{grown / 2**20:.0f} MiB for a {decoded / 2**20:.0f}-MiB picture"
+
+
 # -- refusals: one sentence, naming the input ------------------------------------------
 
 def png_claiming(w: int, h: int) -> bytes:

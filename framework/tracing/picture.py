@@ -77,6 +77,12 @@ from inkmotion.tracing.ruling import drop_ruling
 HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"mif1", b"msf1")
 #: larger images are reduced to about this many pixels as they are decoded (said in notes)
 WORK_PIXELS = 4_000_000
+#: how a huge picture's pixels are averaged as it is reduced (:func:`_reduced`): as
+#: tones, and with alpha premultiplied (any other mode as it is)
+AVERAGED_AS = {"1": "L", "P": "RGBA", "PA": "RGBA", "LA": "La", "RGBA": "RGBa",
+               "I;16": "I", "I;16B": "I", "I;16L": "I", "I;16N": "I"}
+#: rows of a huge picture converted and reduced at a time (:func:`_reduced`)
+BAND_ROWS = 512
 #: larger images are refused (a decompression bomb, or a page scanned far too fine)
 REFUSE_PIXELS = 400_000_000
 #: a picture file may be this large: what is limited is its pixel count (REFUSE_PIXELS)
@@ -243,13 +249,13 @@ def decode(source: str, tone: str = "grey") -> tuple[np.ndarray, float, list[str
         if factor > 1 and img.format == "JPEG":
             img.draft("L" if tone == "grey" else "RGB", (w // factor, h // factor))
         img.load()
-        img = _flatten(img, tone)
         if factor > 1:
             step = max(1, round(img.size[0] / (w / factor)))
             if step > 1:
-                img = img.reduce(step)
-            if img.size[0] * img.size[1] > 1.05 * WORK_PIXELS:
-                img = img.resize((w // factor, h // factor), Image.Resampling.BOX)
+                img = _reduced(img, step)
+        img = _flatten(img, tone)
+        if factor > 1 and img.size[0] * img.size[1] > 1.05 * WORK_PIXELS:
+            img = img.resize((w // factor, h // factor), Image.Resampling.BOX)
         grey = np.ascontiguousarray(upright(_grey_array(img), orientation))
     width, height = (w, h) if orientation < 5 else (h, w)  # the file's, as shown
     if factor > 1:
@@ -264,6 +270,30 @@ def decode(source: str, tone: str = "grey") -> tuple[np.ndarray, float, list[str
 def _reason(exc: BaseException) -> str:
     text = str(exc).strip().rstrip(".")
     return text[:80] if text else type(exc).__name__
+
+
+def _reduced(img: object, step: int) -> object:
+    """``img`` reduced ``step`` times (each ``step`` × ``step`` block's mean), a band of
+    :data:`BAND_ROWS` rows at a time, so that nothing the decoded picture's size is held
+    beside it (a 400-megapixel RGBA scan took 10 GB when it was flattened first). Values
+    that are not tones are converted before they are averaged (:data:`AVERAGED_AS`:
+    palette indices, bilevel pixels, 16-bit greys, which ``Image.reduce`` refuses), and
+    alpha is premultiplied, so the colour hidden under transparent pixels never tints
+    the ink beside them."""
+    from PIL import Image
+
+    assert isinstance(img, Image.Image)
+    mode = AVERAGED_AS.get(img.mode, img.mode)
+    if img.mode == "P" and "transparency" not in img.info:
+        mode = "RGB"
+    w, h = img.size
+    rows = step * max(1, BAND_ROWS // step)
+    out = Image.new(mode, (math.ceil(w / step), math.ceil(h / step)))
+    for top in range(0, h, rows):
+        band = img.crop((0, top, w, min(h, top + rows)))
+        out.paste((band if band.mode == mode else band.convert(mode)).reduce(step),
+                  (0, top // step))
+    return out.convert(mode.upper()) if mode in ("La", "RGBa") else out  # straight alpha
 
 
 def _flatten(img: object, tone: str = "grey") -> object:
