@@ -148,3 +148,9 @@ def test_a_drawing_too_small_for_its_pen_says_which_size_gives_it_room(tmp_path:
                       'd="M0 5 L40 5 M60 5 L100 5 M120 5 L160 6" stroke="black"/></svg>')
     report, _ = _fit(dashes, tmp_path / "dashes", "--steps", "20")
     assert not any("shorter side" in w for w in report.get("warnings", []))
+    stray = tmp_path / "stray.gml"  # one glitched point 10^308 away: no canvas gives it room
+    stray.write_text("<gml><tag><drawing><stroke><pt><x>0.1</x><y>0.1</y></pt><pt><x>1e308</x>"
+                     "<y>0.5</y></pt><pt><x>0.3</x><y>0.9</y></pt></stroke></drawing></tag></gml>")
+    report, _ = _fit(stray, tmp_path / "stray", "--steps", "5")
+    (said,) = [w for w in report["warnings"] if "shorter side" in w]
+    assert "look for a stray point far from the rest" in said and "--size" not in said

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from inkmotion.errors import SpecError
 from inkmotion.jobs.params import PluginChoice, param, plugin_param
-from inkmotion.kinds.optimisation import OptimisationParams
+from inkmotion.kinds.optimisation import MAX_CANVAS, OptimisationParams
 
 if TYPE_CHECKING:
     from inkmotion.fitting.stages import RefineSettings, StagedFit, StagedProblem
@@ -350,11 +350,13 @@ def _small_detail(traces: Any, target: Any, width: float, size: int, source: str
                  for s in traces.strokes)
     if float(target.sum()) >= MERGED_INK * length * width:
         return None
-    larger = int(math.ceil(size * 2 * DETAIL_PENS * width / max(extent, 1e-9) / 50) * 50)
-    return (f"{source}: the drawing is {extent:.0f} px across its shorter side on this "
-            f"{size}-px canvas, under {DETAIL_PENS:g} widths of the {width:.1f}-px pen, so its "
-            f"strokes merge and it is hard to read even where the fit follows it (a long "
-            f"line of text); give --size {larger}, or split the drawing.")
+    larger = math.ceil(size * 2 * DETAIL_PENS * width / max(extent, 1e-9) / 50) * 50
+    what = (f"give --size {larger}, or split the drawing" if larger <= MAX_CANVAS else
+            "split the drawing, or look for a stray point far from the rest")
+    return (f"{source}: the drawing is {extent:.3g} px across its shorter side on "
+            f"this {size}-px canvas, under {DETAIL_PENS:g} widths of the {width:.1f}-px pen, "
+            f"so its strokes merge and it is hard to read even where the fit follows it (a "
+            f"long line of text); {what}.")
 
 
 def widened(ink: Any, by: float) -> Any:

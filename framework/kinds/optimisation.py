@@ -40,6 +40,10 @@ if TYPE_CHECKING:
     from inkmotion.sigma_lognormal.plan import MotorPlan
 
 
+#: the largest canvas (``--size``) an optimisation takes, px
+MAX_CANVAS = 4096
+
+
 @dataclass
 class OptimisationParams:
     """The objective's weights and Adam's settings, shared by the kinds that optimise a
@@ -50,7 +54,7 @@ class OptimisationParams:
 
     steps: int = param(400, "Adam steps.", minimum=1, maximum=100_000,
                        earlier={2: 300, 6: 600})
-    size: int = param(350, "Canvas longer side, px.", minimum=32, maximum=4096)
+    size: int = param(350, "Canvas longer side, px.", minimum=32, maximum=MAX_CANVAS)
     width: float = param(3.0, "Stroke width, px.", minimum=0.01, maximum=256)
     lambda_smooth: float = param(45.0, "Weight λ of the smoothing (minimum-time) cost.",
                                  minimum=0, flag="--lambda", earlier={2: 20.0})
