@@ -52,6 +52,16 @@ def test_plan_round_trip(tmp_path, dim: int) -> None:
     ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": []}', "at least one path"),
     ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0], '
      '[NaN, 1]], "delta_t": [1], "delta": [0], "ac": [0.01], "T": [0.8]}]}', "NaN"),
+    # finite, and huge: overflowed evaluate's timings into a traceback
+    ('{"version": 1, "canvas": {"width": 1e308, "height": 10}, "paths": [{"points": [[0, 0], '
+     '[1, 1]], "delta_t": [1], "delta": [0], "ac": [0.01], "T": [0.8]}]}',
+     "its canvas is 1e.308 × 10 px, over the 100000 px"),
+    ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0], '
+     '[1e30, 1]], "delta_t": [1], "delta": [0], "ac": [0.01], "T": [0.8]}]}',
+     r"paths\[0\] has a target 1e\+30 px from the origin, over 100 times its 10 × 10-px"),
+    ('{"version": 1, "canvas": {"width": 10, "height": 10}, "paths": [{"points": [[0, 0], '
+     '[1e300, 1]], "delta_t": [1], "delta": [0], "ac": [0.01], "T": [0.8]}]}',
+     "beyond a 32-bit float's 3.4e38"),
 ])
 def test_bad_plan_files(tmp_path, content: str, fragment: str) -> None:
     path = tmp_path / "plan.json"

@@ -171,6 +171,14 @@ def _check_counts(path: object, where: str) -> None:
                              "values.")
 
 
+#: the largest side of a plan's canvas, px: far beyond any drawing's (a larger one is a
+#: damaged file, and its scale overflows the timings made from it)
+MAX_CANVAS_SIDE = 100_000
+#: how far from the origin a plan's targets may lie, in sides of its canvas (a fit keeps
+#: them on it; a plan edited by hand may overshoot, not by a hundred canvases)
+FAR_OFF_CANVASES = 100
+
+
 def _check_ranges(plan: MotorPlan, where: str) -> None:
     """Refuse, in one sentence naming the path and the value, a plan whose values are not
     a movement's (:data:`RANGES`), a width below 0 or a negative radius."""
@@ -234,9 +242,22 @@ class Drawing:
             ) from exc
         for p in plans:
             if not all(torch.isfinite(getattr(p, k)).all() for k in _TENSORS):
-                raise InputError(f"{source}: holds NaN or infinite values.")
+                raise InputError(f"{source}: holds NaN or infinite values (or numbers beyond "
+                                 "a 32-bit float's 3.4e38); refit the plan or restore them.")
         if not plans or not all(math.isfinite(c) and c > 0 for c in canvas):
             raise InputError(f"{source}: needs a positive canvas and at least one path.")
+        if max(canvas) > MAX_CANVAS_SIDE:
+            raise InputError(f"{source}: its canvas is {canvas[0]:g} × {canvas[1]:g} px, over "
+                             f"the {MAX_CANVAS_SIDE:g} px a plan's may be; refit the plan or "
+                             "restore its canvas.")
+        reach = FAR_OFF_CANVASES * max(canvas)
+        for i, p in enumerate(plans):
+            far = float(p.points[:, :2].abs().max())
+            if far > reach:
+                raise InputError(f"{source}: paths[{i}] has a target {far:g} px from the "
+                                 f"origin, over {FAR_OFF_CANVASES} times its "
+                                 f"{canvas[0]:g} × {canvas[1]:g}-px canvas; refit the plan or "
+                                 "restore its values.")
         for i, p in enumerate(plans):
             _check_ranges(p, f"{source}: paths[{i}]")
         return cls(canvas, plans)
