@@ -76,6 +76,7 @@ def test_bad_plan_files(tmp_path, content: str, fragment: str) -> None:
     ("ac", 1.5, r"\.ac\[1\] is 1\.5, but it is the lognormal's shape Ac, between 0 and 1"),
     ("delta_t", -5.0, r"\.delta_t\[1\] is -5, but it is an overlap"),
     ("delta", 100.0, r"\.delta\[1\] is 100, but it is an arc's turn"),
+    ("delta", 2 * math.pi, r"\.delta\[1\] is 6\.28319, but it is an arc's turn δ, less than 2π"),
     ("width", -3.0, r"\.width is -3, but a pen's width is 0 or more"),
     ("delta_t", [0.5], r"\.delta_t has 1 values for its 2 sub-movements"),
 ])

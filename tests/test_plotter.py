@@ -264,15 +264,17 @@ def test_a_plan_whose_motion_leaves_the_paper_is_refused(tmp_path: Path) -> None
     """A plan whose points lie off its canvas (edited, or multiplied by 1e6) would drive
     the pen off the sheet, or time a path of 10⁸ mm (the memory ran out): refused in one
     sentence from a few hundred samples of the motion, before any timing."""
-    data = json.loads(WORD.read_text())
-    for path in data["paths"]:
-        path["points"] = [[1e6 * x, 1e6 * y] for x, y in path["points"]]
-    plan = tmp_path / "huge.json"
-    plan.write_text(json.dumps(data))
-    with pytest.raises(InputError, match=r"the motion leaves the 297 × 210 mm paper \(it "
-                       r"reaches x .* mm: its points lie off its .* px canvas\); refit"):
-        run_job(JobSpec(kind="plot", inputs={"plan": str(plan)}, params={}), tmp_path / "o")
-    assert not (tmp_path / "o").exists()
+    for factor, said in ((20, r"the motion leaves the 297 × 210 mm paper \(it reaches x .* "
+                               r"mm: its points lie off its .* px canvas\); refit"),
+                         (1e6, r"has a target .* px from the origin, over 100 times its")):
+        data = json.loads(WORD.read_text())
+        for path in data["paths"]:
+            path["points"] = [[factor * x, factor * y] for x, y in path["points"]]
+        plan = tmp_path / "huge.json"
+        plan.write_text(json.dumps(data))
+        with pytest.raises(InputError, match=said):
+            run_job(JobSpec(kind="plot", inputs={"plan": str(plan)}, params={}), tmp_path / "o")
+        assert not (tmp_path / "o").exists()
 
 
 def test_custom_machine_files_are_checked(tmp_path: Path) -> None:

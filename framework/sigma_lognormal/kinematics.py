@@ -202,18 +202,26 @@ def evaluate_kinematics(
         lo, hi, centre = _window_bounds(times, t0, sigma, mu, layout,
                                         with_centre=layout.window is not None)
         overflow = None
-        if layout.window is None:
+        if layout.window is None:  # only the sub-movements with samples in their support:
+            # a long plan's block of times (kinematics' chunk) meets few of its thousands
+            moving = torch.nonzero(hi > lo).squeeze(1)
             k = int((hi - lo).max()) if lo.numel() else 0
+            first, ends = lo.index_select(0, moving), hi.index_select(0, moving)
         else:
             k = layout.window
             overflow = (hi - lo > window_alarm(k)).any()
             lo, hi = _fit_window(lo, hi, centre, k)
-        idx = lo[:, None] + torch.arange(max(k, 1), device=device)  # (M, K)
-        valid = idx < hi[:, None]
+            moving, first, ends = None, lo, hi
+        idx = first[:, None] + torch.arange(max(k, 1), device=device)  # (M', K)
+        valid = idx < ends[:, None]
         idx = torch.where(valid, idx, torch.zeros_like(idx))
 
-    tau = times.index_select(0, idx.reshape(-1)).view(idx.shape) - t0[:, None]  # (M, K)
-    x, v, a = submovement_terms(tau, d, batch.delta, sigma, mu, accelerations)
+    def of_moving(values: torch.Tensor) -> torch.Tensor:
+        return values if moving is None else values.index_select(0, moving)
+
+    tau = times.index_select(0, idx.reshape(-1)).view(idx.shape) - of_moving(t0)[:, None]
+    x, v, a = submovement_terms(tau, of_moving(d), of_moving(batch.delta), of_moving(sigma),
+                                of_moving(mu), accelerations)
     mask = valid[..., None].to(x.dtype)
     flat = idx.reshape(-1)
     dim = d.shape[1]
@@ -249,16 +257,27 @@ def uniform_times(batch: PlanBatch, layout: GridLayout) -> tuple[torch.Tensor, t
     return layout.sample_step.to(dt.dtype) * dt.index_select(0, layout.sample_path), dt
 
 
+#: times :func:`kinematics` evaluates at once: a long plan's samples (a plotter's or a
+#: robot's, hours at 1 kHz) are taken this many at a time, so memory stays bounded
+KINEMATICS_CHUNK = 250_000
+
+
 def kinematics(plan: MotorPlan, t: torch.Tensor) -> Kinematics:
     """Positions, velocities and accelerations of ``plan`` at times ``t`` (n,): (n, D) each.
 
-    Differentiable w.r.t. the plan's tensors and ``t``; any order of ``t`` is accepted.
+    Differentiable w.r.t. the plan's tensors and ``t``; any order of ``t`` is accepted;
+    the times are taken :data:`KINEMATICS_CHUNK` at a time.
     """
     t = torch.as_tensor(t, dtype=plan.points.dtype, device=plan.points.device).reshape(-1)
     order = torch.argsort(t.detach())
     inverse = torch.empty_like(order)
     inverse[order] = torch.arange(order.numel(), device=order.device)
     batch = PlanBatch.from_plans([plan])
-    counts = torch.full((1,), t.numel(), dtype=torch.long, device=t.device)
-    out = batch_kinematics(batch, t[order], batch.layout(counts, n_samples=t.numel()))
+    pieces = []
+    for chunk in t[order].split(KINEMATICS_CHUNK):  # memory bounded for hours of samples
+        counts = torch.full((1,), chunk.numel(), dtype=torch.long, device=t.device)
+        pieces.append(batch_kinematics(batch, chunk, batch.layout(counts,
+                                                                  n_samples=chunk.numel())))
+    out = [torch.cat(parts) for parts in zip(*pieces, strict=True)] if len(pieces) > 1 \
+        else pieces[0]
     return Kinematics(*(o[inverse] for o in out))

@@ -40,12 +40,19 @@ def onsets(
 ) -> torch.Tensor:
     """Onset times t0 (M,) of every sub-movement of several packed paths.
 
-    Within a path: t0_1 = −e^{μ_1−3σ_1}, t0_i = t0_{i−1} + Δt_i·T_i (Δt_1 unused). Done as
-    one global cumulative sum, minus what was accumulated before each path's first entry
-    (gathered at ``layout.move_first``): no Python loop, no data-dependent shape.
+    Within a path: t0_1 = −e^{μ_1−3σ_1}, t0_i = t0_{i−1} + Δt_i·T_i + (e^{μ_{i−1}−3σ_{i−1}}
+    − e^{μ_i−3σ_i}) (Δt_1 unused): each ±3σ window opens Δt_i·T_i after the one before
+    it. Where every Ac_i and T_i are equal (a fit's default, the authors' setting) the
+    bracket is exactly 0 and this is the authors' t0_i = t0_{i−1} + Δt_i·T_i; where they
+    differ (``--lr-ac``), the window opens e^{μ−3σ} after t0, 0.13 s at Ac 0.1 and 13 s at
+    1e-4, and chaining the t0 alone let a window open before the previous one, or before
+    t = 0. Done as one global cumulative sum, minus what was accumulated before each
+    path's first entry (gathered at ``layout.move_first``): no Python loop, no
+    data-dependent shape.
     """
-    start = -torch.exp(mu - 3.0 * sigma)
-    steps = torch.where(layout.first, start, delta_t * T)  # (M,)
+    lead = torch.exp(mu - 3.0 * sigma)  # (M,) from t0 to the window's opening
+    before = torch.cat([lead[:1], lead[:-1]])  # the previous sub-movement's (unused first)
+    steps = torch.where(layout.first, -lead, delta_t * T + (before - lead))  # (M,)
     total = torch.cumsum(steps, dim=0)
     return total - (total - steps).index_select(0, layout.move_first)
 

@@ -150,7 +150,8 @@ RANGES: tuple[tuple[str, Callable[[torch.Tensor], torch.Tensor], str], ...] = (
     ("T", lambda v: v > 0, "a duration, positive"),
     ("ac", lambda v: (v > 0) & (v < 1), "the lognormal's shape Ac, between 0 and 1"),
     ("delta_t", lambda v: v >= 0, "an overlap Δt, 0 or more (onsets never go back)"),
-    ("delta", lambda v: v.abs() <= 2 * math.pi, "an arc's turn δ, at most 2π either way"),
+    ("delta", lambda v: v.abs() < 2 * math.pi,  # 2π: h = 1/sinc(1), an endless radius
+     "an arc's turn δ, less than 2π either way"),
 )
 
 
