@@ -154,3 +154,17 @@ def test_a_drawing_too_small_for_its_pen_says_which_size_gives_it_room(tmp_path:
     report, _ = _fit(stray, tmp_path / "stray", "--steps", "5")
     (said,) = [w for w in report["warnings"] if "shorter side" in w]
     assert "look for a stray point far from the rest" in said and "--size" not in said
+
+
+def test_the_report_says_how_many_turns_sit_on_their_quarter_circle(tmp_path: Path) -> None:
+    """δ clamped at ±π/2 (the most one arc may turn) is where the model's curvature limit
+    binds: report.json gives its share, as it does the overlaps' on a bound."""
+    import math
+
+    report, _ = _fit("sample:tempt-3", tmp_path / "t3", "--steps", "60")
+    plan = json.loads((tmp_path / "t3" / "plan.json").read_text())
+    deltas = [d for path in plan["paths"] for d in path["delta"]]
+    at = sum(abs(abs(d) - math.pi / 2) <= 1e-6 for d in deltas)
+    assert report["delta_at_clamp"] == pytest.approx(at / len(deltas))
+    assert report["metrics"]["delta_at_clamp"] == report["delta_at_clamp"]
+    assert at > 0  # tempt-3's hooks turn as far as an arc may

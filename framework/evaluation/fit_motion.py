@@ -66,6 +66,18 @@ def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
     return len(pinned_overlaps(plans, tolerance)) / overlaps if overlaps else 0.0
 
 
+def delta_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
+    """Share of the turning angles δ_i within ``tolerance`` of their clamp ±π/2 (a quarter
+    circle, the most one sub-movement's arc may turn in a fit): where the model's
+    curvature limit binds (a tight loop or hook drawn with too few targets); 0 for no
+    sub-movement."""
+    from inkmotion.sigma_lognormal.params import DELTA_RANGE
+
+    deltas = [d for plan in plans for d in plan.delta.detach().cpu().double().tolist()]
+    at = sum(1 for d in deltas if min(abs(d - b) for b in DELTA_RANGE) <= tolerance)
+    return at / len(deltas) if deltas else 0.0
+
+
 def evaluation_ratios(drawing: Any) -> dict[str, float]:
     """The paper's ratios method/ΣΛ (> 1: ΣΛ better) of duration, MSJ and LDJ for minimum
     jerk and time-optimal timing of the longest path, at :data:`V_MAX`, :data:`A_MAX`."""

@@ -457,6 +457,7 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
     import json
 
     from inkmotion.evaluation.fit_motion import (
+        delta_at_clamp,
         delta_t_at_clamp,
         fit_speed_peaks,
         pinned_overlaps,
@@ -480,10 +481,12 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
     metrics.update(chamfer_mean_px=chamfer_mean, chamfer_max_px=chamfer_max,
                    t_end_ratio_multi=t_end_ratio_multi(staged),
                    delta_t_at_clamp=delta_t_at_clamp(plans),
+                   delta_at_clamp=delta_at_clamp(plans),
                    fit_speed_peaks=fit_speed_peaks(drawing))
     report.update(t_end_ratio_multi=metrics["t_end_ratio_multi"],
                   chamfer_mean_px=chamfer_mean, chamfer_max_px=chamfer_max,
                   delta_t_at_clamp=metrics["delta_t_at_clamp"],
+                  delta_at_clamp=metrics["delta_at_clamp"],
                   speed_peaks=metrics["fit_speed_peaks"], stages=staged.stages)
     report.update(quality_verdict(traces, plans, size, chamfer_max, job.params))
     metrics["quality"] = report["quality"]
