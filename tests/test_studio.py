@@ -301,6 +301,33 @@ def test_a_post_from_another_origin_or_not_json_is_refused(studio):
     assert status == 415
 
 
+def test_a_studio_without_a_token_answers_only_to_its_loopback_names(studio):
+    """DNS rebinding: a page at evil.example whose name was made to point at 127.0.0.1
+    sends Host and Origin evil.example, which the same-origin rule passes; without a token
+    the Host must be a loopback name. A malformed job id in the address is a 404."""
+    body = {"input": {"text": "x"}, "settings": FAST}
+    for host in ("evil.example", f"evil.example:{studio.port}", "127.0.0.1.evil.example"):
+        status, d = studio.request("GET", "/api/jobs", headers={"Host": host})
+        assert status == 403 and "answers only to localhost" in d["error"], host
+        status, d = studio.request("POST", "/api/fits", body, headers={
+            "Host": host, "Origin": f"http://{host}"})
+        assert status == 403, host
+    for host in (f"localhost:{studio.port}", f"127.0.0.1:{studio.port}", f"[::1]:{studio.port}"):
+        assert studio.request("GET", "/api/jobs", headers={"Host": host})[0] == 200, host
+    for bad in ("zzz", "096670D1" * 4):
+        status, text = studio.request("GET", f"/job/{bad}")
+        assert status == 404 and b"a job id is 32 hexadecimal digits" in text
+
+
+def test_off_loopback_an_empty_or_short_token_is_refused() -> None:
+    for token in ("", "s3cret"):
+        res = subprocess.run([sys.executable, "-m", "inkmotion", "studio", "--host", "0.0.0.0",
+                              "--port", str(_free_port()), "--token", token, "--no-open"],
+                             capture_output=True, text=True, timeout=60)
+        assert res.returncode == 2, res.stderr
+        assert "give one of 16 or more, or leave --token out" in res.stderr
+
+
 def test_an_upload_is_checked_before_any_job(studio):
     status, d = studio.request("POST", "/api/uploads", b"not a png",
                                headers={"X-Filename": "scan.png"})

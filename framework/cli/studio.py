@@ -12,10 +12,12 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from inkmotion.cli.errors import fail
+from inkmotion.cli.errors import EXIT_USAGE, fail
 
 #: the studio's port unless --port says otherwise
 DEFAULT_PORT = 8765
+#: the fewest characters a --token may have off loopback, where it is all that guards
+MIN_TOKEN = 16
 
 
 def is_loopback(host: str) -> bool:
@@ -66,6 +68,10 @@ def studio_cmd(
 
     if token is None and not is_loopback(host):
         token = secrets.token_urlsafe(18)
+    elif token is not None and not is_loopback(host) and len(token) < MIN_TOKEN:
+        fail(f"--token: on {host} the token is all that guards the studio, and one of "
+             f"{len(token)} characters is soon guessed; give one of {MIN_TOKEN} or more, or "
+             "leave --token out for a random one.", code=EXIT_USAGE)
     _check_port(host, port)  # before any job process starts
     try:
         settings = load_settings()

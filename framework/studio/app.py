@@ -40,7 +40,13 @@ from typing import Any
 import jinja2
 from starlette.applications import Starlette
 from starlette.requests import Request
-from starlette.responses import FileResponse, JSONResponse, Response, StreamingResponse
+from starlette.responses import (
+    FileResponse,
+    JSONResponse,
+    PlainTextResponse,
+    Response,
+    StreamingResponse,
+)
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 from starlette.templating import Jinja2Templates
@@ -171,7 +177,17 @@ def _guarded(app: Any, studio: Studio) -> Any:
     return guard
 
 
+#: the names a studio without a token answers to (its loopback address as a browser on the
+#: same machine writes it)
+LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
+
+
 def _refusal(request: Request, token: str | None) -> tuple[int, str] | None:
+    if not token and _host_name(request.headers.get("host", "")) not in LOOPBACK_NAMES:
+        # a page elsewhere whose name was made to point at 127.0.0.1 (DNS rebinding) sends
+        # its own name as Host, and its own origin, which the POST rule below would pass
+        return 403, ("This studio answers only to localhost or 127.0.0.1 (run it with "
+                     "--host to serve it elsewhere, with its token).")
     if token:
         given = request.query_params.get("token") or request.cookies.get(TOKEN_COOKIE) or ""
         if not secrets.compare_digest(given.encode(), token.encode()):
@@ -186,6 +202,16 @@ def _refusal(request: Request, token: str | None) -> tuple[int, str] | None:
         if kind not in ("application/json", "application/octet-stream"):
             return 415, "The studio takes JSON or a file's bytes; use its page."
     return None
+
+
+def _host_name(host: str) -> str:
+    """The name in a Host header, without its port ('[::1]:8765' -> '::1')."""
+    from urllib.parse import urlsplit
+
+    try:
+        return urlsplit(f"//{host}").hostname or ""
+    except ValueError:
+        return ""
 
 
 def _api(studio: Studio, handler: Any) -> Any:
@@ -207,7 +233,10 @@ def _page(studio: Studio, templates: Jinja2Templates, name: str) -> Any:
     async def endpoint(request: Request) -> Response:
         job_id = request.path_params.get("job_id")
         if job_id is not None:
-            job_id = _job_id(job_id)
+            try:
+                job_id = _job_id(job_id)
+            except UserError as exc:
+                return PlainTextResponse(str(exc), exc.status)
         return templates.TemplateResponse(request, name, _context(studio, job_id))
 
     return endpoint
