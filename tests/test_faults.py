@@ -95,6 +95,34 @@ def test_redis_killed_and_restarted_with_aof_loses_no_job(services: dict) -> Non
     print({r.id[:8]: r.attempts for r in records})
 
 
+def test_redis_down_longer_than_a_lease_strands_no_job(services: dict) -> None:
+    """Redis away for longer than a lease: Celery ends the running task (its message
+    cannot be acknowledged), the lease expires, and the reapers cannot send the job again
+    while the broker is down. The job is put back as they found it, and sent once Redis
+    is back: it finishes in seconds, not at the broker's redelivery three hours later
+    (before, it sat 'queued' with no message)."""
+    env = {**services["env"], "INKMOTION_LEASE_S": "4", "INKMOTION_REAPER_INTERVAL": "1"}
+    services["env"].update(env)
+    pool, data = services["pool"], services["data"]
+    pool.prefork = True  # as `inkmotion worker` runs: the job in a child the broker's loss ends
+    pool.ensure(("o1",))
+    (job,) = submit(env, "text:hello", "--steps", "6000", "--size", "96")  # ~30 s
+    db = env["INKMOTION_DB_URL"]
+    deadline = time.monotonic() + 60
+    while store.get_job(job, db).status != "running" or not store.get_job(job, db).step:
+        assert time.monotonic() < deadline, "the job did not start"
+        time.sleep(0.2)
+    time.sleep(1.5)  # the append-only file is synced every second
+    redis = services["redis"]
+    os.kill(redis.proc.pid, 9)
+    redis.proc.wait(10)
+    time.sleep(12)  # three leases: expired, and the reaper has looked (and failed) often
+    services["redis"] = start_redis(redis.folder, port=redis.port, aof=True)
+    (record,) = wait_all([job], db, timeout=150)
+    assert record.status == "succeeded" and one_result_set(data, job)
+    assert record.attempts >= 2  # the ended attempt, then the one the reaper sent
+
+
 @pytest.fixture
 def postgres_services(services: dict) -> Iterator[dict]:
     if postgres_bin_dir() is None:

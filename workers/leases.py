@@ -8,6 +8,9 @@ progress updates renew it too. When a worker dies, the renewals stop; every work
 whose lease expired (one conditional update per job, so one reaper wins) and sends them
 to their queue again. With the defaults (lease 30 s, interval 10 s) a dead worker's job is
 queued again at most 40 s after its last heartbeat and starts as soon as a worker is free.
+When the broker is away (Redis down for longer than a lease: the running task is ended
+by Celery, its lease then expires), a job whose message cannot be sent is put back as
+the reaper found it, and a later look, once the broker is back, sends it.
 
 The broker's own redelivery (the unacknowledged message, after the visibility timeout)
 is kept as a backstop: when it comes, the job has finished and is skipped, so the
@@ -128,12 +131,18 @@ class Reaper:
 
     def sweep(self) -> list[str]:
         """One look: the ids of the jobs this call re-queued (and sent again)."""
-        from inkmotion.store import requeue_expired
+        from inkmotion.store import requeue_expired, unsent
         from inkmotion.workers.app import TASK_NAME, app
 
-        sent = []
-        for record in requeue_expired(self.db_url):
-            app.send_task(TASK_NAME, args=[record.id], queue=record.queue)
+        sent: list[str] = []
+        records = requeue_expired(self.db_url)
+        for record in records:
+            try:
+                app.send_task(TASK_NAME, args=[record.id], queue=record.queue)
+            except Exception:  # the broker is away: these go back as they were, for the
+                for left in records[len(sent):]:  # next look to send (module docstring)
+                    unsent(left.id, self.db_url)
+                raise
             log.warning("job %s: its lease expired (worker %s stopped); queued again on %s",
                         record.id, record.worker_host, record.queue)
             sent.append(record.id)

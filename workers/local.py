@@ -165,6 +165,9 @@ class WorkerPool:
     #: job slots per worker: > 1 runs a prefork pool of that many children (each job runs
     #: with the thread count of its spec, default 1: :mod:`inkmotion.devices`)
     concurrency: int = 1
+    #: a prefork pool even of one child, as ``inkmotion worker`` runs by default (the job
+    #: in a child process, which the main process ends when it loses the broker)
+    prefork: bool = False
 
     def __post_init__(self) -> None:
         if not self.queues:
@@ -174,7 +177,7 @@ class WorkerPool:
 
     def command(self, name: str) -> list[str]:
         """The command line of worker ``name``."""
-        pool = "solo" if self.concurrency == 1 else "prefork"
+        pool = "prefork" if self.prefork or self.concurrency > 1 else "solo"
         return [sys.executable, "-m", "celery", "-A", "inkmotion.workers.app", "worker",
                 f"--pool={pool}", f"--concurrency={self.concurrency}",
                 f"--queues={','.join(self.queues)}",

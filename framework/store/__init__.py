@@ -20,7 +20,7 @@ _DEFINED_IN = {
     **{name: "repository" for name in (
         "create_job", "delete_job", "mark_cancelled", "mark_failed", "mark_running",
         "mark_succeeded", "new_job_id", "release", "renew_lease", "requeue_expired",
-        "update_progress", "update_spec")},
+        "unsent", "update_progress", "update_spec")},
 }
 
 __all__ = sorted(_DEFINED_IN)

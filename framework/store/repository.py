@@ -161,6 +161,16 @@ def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
     return requeued
 
 
+def unsent(job_id: str, db_url: str | None = None) -> bool:
+    """Undo :func:`requeue_expired` for a job whose message could not be sent (the broker
+    away): running again with its lease expired and no owner, as before the reaper looked,
+    so the next look re-queues and sends it. Queued without a message, nothing would ever
+    send it (the broker's own redelivery comes hours later)."""
+    return _update_where(db_url, Job.id == job_id, Job.status == "queued",
+                         Job.lease_owner.is_(None), status="running",
+                         lease_until=utcnow() - timedelta(seconds=1), updated_at=utcnow())
+
+
 def release(job_id: str, owner: str, db_url: str | None = None) -> bool:
     """Attempt ``owner`` hands its running job back: status queued, no lease, at once (a
     worker shutting down). ``False`` when the job is no longer this attempt's."""
