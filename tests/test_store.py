@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import subprocess
 import sys
 import time
@@ -313,3 +314,22 @@ def test_a_cancel_the_heartbeat_sees_first_stops_the_run_as_a_cancel(db_url):
     assert store.mark_running(taken.id, "w2", db_url, owner="b")
     with pytest.raises(LeaseLost):
         StoreProgressObserver(taken.id, db_url, owner="a", lost=lost).on_step(step)
+
+
+@pytest.mark.parametrize("url, words", [
+    ("foo://bar", "INKMOTION_DB_URL=foo://bar is not a job store this can open"),
+    ("sqlite:////proc/inkmotion-none/jobs.db", "its folder cannot be made"),
+    ("postgresql+psycopg://user:hidden@127.0.0.1:1/jobs",
+     "INKMOTION_DB_URL=postgresql+psycopg://user:***@127.0.0.1:1/jobs cannot be used"),
+])
+def test_a_job_store_that_cannot_be_used_is_one_sentence(url: str, words: str) -> None:
+    """A mistyped or unreachable INKMOTION_DB_URL was a 150-line traceback on the command
+    line; now one sentence naming it, its password hidden."""
+    if url.startswith("postgresql"):
+        pytest.importorskip("psycopg")
+    env = {**os.environ, "INKMOTION_DB_URL": url}
+    res = subprocess.run([sys.executable, "-m", "inkmotion", "jobs", "list"], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 1 and words in res.stderr, res.stderr
+    assert "Traceback" not in res.stderr and "hidden" not in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1

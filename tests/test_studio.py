@@ -319,6 +319,14 @@ def test_a_studio_without_a_token_answers_only_to_its_loopback_names(studio):
         assert status == 404 and b"a job id is 32 hexadecimal digits" in text
 
 
+def test_a_json_request_over_its_limit_is_refused_unread(studio):
+    """A 300-MB JSON body took 1.45 GB of the studio's memory and started a fit."""
+    pad = b'{"input": {"text": "hi"}, "settings": {}, "pad": "' + b"x" * (17 * 2**20) + b'"}'
+    status, d = studio.request("POST", "/api/fits", pad,
+                               headers={"Content-Type": "application/json"})
+    assert status == 413 and "over 16 MB" in d["error"]
+
+
 def test_off_loopback_an_empty_or_short_token_is_refused() -> None:
     for token in ("", "s3cret"):
         res = subprocess.run([sys.executable, "-m", "inkmotion", "studio", "--host", "0.0.0.0",

@@ -127,6 +127,19 @@ def test_input_above_the_size_limit_is_refused(service_env, tmp_path):
     assert res.returncode == 1 and "input limit" in res.stderr
 
 
+def test_an_unwritable_data_dir_or_a_short_id_is_one_sentence(service_env, tmp_path):
+    """The job's input copy failing (a data directory this user cannot write) was a
+    traceback; a job id prefix under 4 characters said no such job existed."""
+    before = len(store.list_jobs(limit=None))
+    res = inkmotion_cli("submit", "fit", str(DATA / "tag.gml"),
+                        env={"INKMOTION_DATA_DIR": "/proc/inkmotion-none"})
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
+    assert "cannot be written under INKMOTION_DATA_DIR=/proc/inkmotion-none" in res.stderr
+    assert len(store.list_jobs(limit=None)) == before
+    res = inkmotion_cli("jobs", "show", "bd")
+    assert res.returncode == 1 and "give at least 4 characters of its id" in res.stderr
+
+
 def test_unknown_kind_is_refused(service_env):
     res = inkmotion_cli("submit", "paint", "text:hi")
     assert res.returncode == 1 and "Unknown job kind 'paint'" in res.stderr

@@ -119,6 +119,11 @@ def submit_specs(specs: list[JobSpec], settings: Settings | None = None) -> list
                 shutil.rmtree(job_dir, ignore_errors=True)
                 if _is_broker_error(exc):
                     raise broker_unreachable(settings.broker_url, _short(exc)) from exc
+                if isinstance(exc, OSError):
+                    raise ServiceError(
+                        f"the job's files cannot be written under INKMOTION_DATA_DIR="
+                        f"{settings.data_dir} ({_short(exc)}); give a folder this user can "
+                        "write (the workers must read it too).") from exc
                 raise
             records.append(record)
     return records

@@ -50,8 +50,12 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Machine-readable output."
 def resolve_job(job_id: str) -> JobRecord:
     """The job record for a full id or a unique prefix, or exit with one sentence."""
     from inkmotion.store import find_job
+    from inkmotion.store.records import MIN_PREFIX
 
     found = find_job(job_id)
+    if found is None and len(job_id) < MIN_PREFIX:
+        fail(f"{job_id!r} is too short to name a job: give at least {MIN_PREFIX} characters "
+             "of its id (`inkmotion jobs list` shows them).")
     if found is None:
         fail(f"No job {job_id!r} in the job store; `inkmotion jobs list` shows the jobs.")
     if isinstance(found, list):

@@ -173,6 +173,12 @@ def main() -> None:
         report("interrupted.")
         sys.exit(130)
     except Exception as exc:  # a third-party plugin's bug is named; inkmotion's own shows
+        if _from_the_job_store(exc):
+            from inkmotion.settings import load_settings
+            from inkmotion.store.db import unreachable
+
+            report(unreachable(exc, load_settings().db_url))
+            sys.exit(EXIT_USER)
         from inkmotion.plugin_host.manager import TRACEBACK_ENV, plugin_at_fault
 
         blame = plugin_at_fault(exc)
@@ -181,6 +187,14 @@ def main() -> None:
         report(blame)
         sys.exit(EXIT_USER)
     sys.exit(code if isinstance(code, int) else 0)
+
+
+def _from_the_job_store(exc: BaseException) -> bool:
+    """Whether ``exc`` is the job store's database refusing (down, unwritable, locked):
+    SQLAlchemy's operational errors, which only an imported SQLAlchemy raises."""
+    alchemy = sys.modules.get("sqlalchemy.exc")
+    return alchemy is not None and isinstance(exc, (alchemy.OperationalError,
+                                                    alchemy.InterfaceError))
 
 
 def _warning_line(message: Warning | str, category: type[Warning], filename: str,

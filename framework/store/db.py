@@ -121,17 +121,59 @@ def get_engine(url: str, migrate: bool = True) -> Engine:
 
 
 def _create(url: str, migrate: bool) -> Engine:
+    """A new engine for ``url`` (:func:`get_engine`); a URL SQLAlchemy cannot use is a
+    :class:`~inkmotion.errors.ServiceError` in one sentence naming ``INKMOTION_DB_URL``
+    (password hidden). A database that cannot be reached raises SQLAlchemy's own error,
+    which a worker retries (:func:`unreachable` words it for the command line)."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
+
+    from inkmotion.errors import ServiceError
+
+    try:
+        shown = make_url(url).render_as_string(hide_password=True)
+    except ArgumentError:
+        shown = url.split("@")[-1]
     path = _sqlite_path(url)
     kwargs: dict[str, Any] = {"pool_pre_ping": True}
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        kwargs["connect_args"] = {"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}
-    engine = create_engine(url, **kwargs)
+    try:
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            kwargs["connect_args"] = {"timeout": SQLITE_BUSY_TIMEOUT_MS / 1000}
+        engine = create_engine(url, **kwargs)
+    except (ArgumentError, NoSuchModuleError, ImportError) as exc:
+        raise ServiceError(
+            f"INKMOTION_DB_URL={shown} is not a job store this can open ({_reason(exc)}); "
+            "give sqlite:////PATH/jobs.sqlite3 or postgresql+psycopg://USER:PASSWORD@HOST/DB."
+        ) from None
+    except OSError as exc:
+        raise ServiceError(f"INKMOTION_DB_URL={shown}: its folder cannot be made "
+                           f"({_reason(exc)}); give a folder you can write.") from None
     if engine.dialect.name == "sqlite":
         event.listen(engine, "connect", _sqlite_pragmas)
     if migrate and not schema_is_current(engine):
         upgrade(engine)
     return engine
+
+
+def unreachable(exc: BaseException, url: str) -> str:
+    """One sentence for a command line whose job store at ``url`` could not be reached or
+    written (``exc``, a SQLAlchemy error; a worker retries such errors instead)."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        shown = make_url(url).render_as_string(hide_password=True)
+    except ArgumentError:
+        shown = url.split("@")[-1]
+    return (f"the job store INKMOTION_DB_URL={shown} cannot be used ({_reason(exc)}); check "
+            "the URL, that the database is running and that it can be written.")
+
+
+def _reason(exc: BaseException) -> str:
+    """The first line of an error, short (a driver's message can run to pages)."""
+    text = str(getattr(exc, "orig", None) or exc).strip().splitlines()
+    return (text[0] if text else type(exc).__name__)[:160]
 
 
 def dispose_engines() -> None:

@@ -22,7 +22,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from inkmotion.store.records import JobRecord, check_statuses
+from inkmotion.store.records import MIN_PREFIX, JobRecord, check_statuses
 
 _FIELDS = tuple(JobRecord.__dataclass_fields__)
 _TIMES = {"created_at", "started_at", "finished_at", "updated_at", "lease_until"}
@@ -50,7 +50,7 @@ def find_job(prefix: str, db_url: str | None = None) -> JobRecord | list[JobReco
     :func:`repository.find_job`)."""
     url = _db_url(db_url)
     exact = get_job(prefix, url)
-    if exact is not None or len(prefix) < 4:
+    if exact is not None or len(prefix) < MIN_PREFIX:
         return exact
     conn = _connect(url)
     if conn is None:

@@ -21,6 +21,10 @@ def utcnow() -> datetime:
     return datetime.now(timezone.utc)
 
 
+#: the fewest characters of a job id that are looked up as its prefix
+MIN_PREFIX = 4
+
+
 @dataclass(frozen=True)
 class JobRecord:
     """A snapshot of one job row.

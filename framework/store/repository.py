@@ -19,7 +19,7 @@ from sqlalchemy.orm import Session
 from inkmotion.json_files import json_ready
 from inkmotion.store.db import get_engine
 from inkmotion.store.models import Job
-from inkmotion.store.records import JobRecord, check_statuses, utcnow
+from inkmotion.store.records import MIN_PREFIX, JobRecord, check_statuses, utcnow
 
 
 def _record(job: Job) -> JobRecord:
@@ -70,7 +70,7 @@ def find_job(prefix: str, db_url: str | None = None) -> JobRecord | list[JobReco
     exact = get_job(prefix, db_url)
     if exact is not None:
         return exact
-    if len(prefix) < 4:
+    if len(prefix) < MIN_PREFIX:
         return None
     with Session(get_engine(_db_url(db_url))) as s:
         rows = s.scalars(select(Job).where(Job.id.like(f"{prefix}%")).limit(10)).all()

@@ -177,6 +177,9 @@ def _guarded(app: Any, studio: Studio) -> Any:
     return guard
 
 
+#: the largest JSON request the studio reads (a drawing made on the page is a few hundred
+#: KB; a file goes as an upload, under its own limit)
+MAX_JSON_BYTES = 16 * 2**20
 #: the names a studio without a token answers to (its loopback address as a browser on the
 #: same machine writes it)
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
@@ -267,8 +270,14 @@ def _job_id(text: str) -> str:
 
 
 async def _json_body(request: Request) -> dict[str, Any]:
+    raw = bytearray()
+    async for chunk in request.stream():  # read no further than the limit
+        raw += chunk
+        if len(raw) > MAX_JSON_BYTES:
+            raise UserError(f"The request is over {MAX_JSON_BYTES // 2**20} MB, more than any "
+                            "drawing or setting needs; use the studio's page.", 413)
     try:
-        body = await request.json()
+        body = json.loads(raw)
     except ValueError:
         raise UserError("The request is not JSON; use the studio's page.") from None
     if not isinstance(body, dict):
