@@ -20,6 +20,10 @@ INKMOTION_LEASE_S              seconds a running job's lease lasts without a hea
 INKMOTION_REAPER_INTERVAL      seconds between a worker's looks for expired leases,
                                whose jobs it puts back on their queue (default 10): a
                                dead worker's job runs again within lease + interval
+INKMOTION_STRANDED_S           seconds a worker with nothing to do waits before it sends
+                               again the jobs of its queues that stayed queued all that
+                               time (their message lost: Redis emptied, a worker with
+                               another job store took it) (default 120)
 INKMOTION_CHECKPOINT_STEPS     a running job's checkpoint every this many steps (50) ...
 INKMOTION_CHECKPOINT_S         ... or seconds (30), whichever comes first; a redelivered
                                job resumes from its last checkpoint
@@ -61,6 +65,7 @@ class Settings:
     restore_interval: int  # s
     lease_s: float = 30.0  # s a running attempt's lease lasts without a heartbeat
     reaper_interval: float = 10.0  # s between two looks for expired leases
+    stranded_s: float = 120.0  # s an idle worker waits before re-sending stranded jobs
     checkpoint_steps: int = 50  # a running job's checkpoint every this many steps ...
     checkpoint_s: float = 30.0  # ... or seconds, whichever comes first
 
@@ -108,6 +113,7 @@ def load_settings() -> Settings:
         restore_interval=int(_number("INKMOTION_RESTORE_INTERVAL", 60)),
         lease_s=float(_number("INKMOTION_LEASE_S", 30)),
         reaper_interval=float(_number("INKMOTION_REAPER_INTERVAL", 10)),
+        stranded_s=float(_number("INKMOTION_STRANDED_S", 120)),
         checkpoint_steps=int(_number("INKMOTION_CHECKPOINT_STEPS", 50)),
         checkpoint_s=float(_number("INKMOTION_CHECKPOINT_S", 30)),
     )

@@ -123,6 +123,41 @@ def test_redis_down_longer_than_a_lease_strands_no_job(services: dict) -> None:
     assert record.attempts >= 2  # the ended attempt, then the one the reaper sent
 
 
+def test_a_worker_that_cannot_write_the_data_dir_fails_the_job_in_one_sentence(
+        services: dict) -> None:
+    """A worker whose INKMOTION_DATA_DIR it cannot write (a read-only mount) raised before
+    the job's log was open: running, stalled, running again every lease, forever, with no
+    error recorded. Now the job fails at once, saying which folder and what to do."""
+    pool, env = services["pool"], services["env"]
+    pool.env = {**env, "INKMOTION_DATA_DIR": "/proc/inkmotion-none"}
+    pool.ensure(("ro",))
+    (job,) = submit(env, "text:hi", "--steps", "5", "--size", "64")
+    (record,) = wait_all([job], env["INKMOTION_DB_URL"], timeout=60)
+    assert record.status == "failed" and record.attempts == 1
+    assert "cannot write the job's folder /proc/inkmotion-none/jobs/" in record.error
+    assert "give INKMOTION_DATA_DIR a folder every worker can write" in record.error
+
+
+def test_a_job_whose_message_is_lost_is_sent_again_by_an_idle_worker(services: dict) -> None:
+    """Redis emptied under queued jobs (a failover to a lagging replica, a restart without
+    its files), or their messages taken and dropped by a worker with another job store:
+    the store says they are queued, and nothing would ever send them. A worker idle for
+    INKMOTION_STRANDED_S sends them again."""
+    import redis as redis_py
+
+    env = {**services["env"], "INKMOTION_STRANDED_S": "3", "INKMOTION_REAPER_INTERVAL": "1"}
+    pool = services["pool"]
+    pool.env = env
+    ids = [i for w in ("lost", "gone") for i in submit(env, f"text:{w}", "--steps", "5",
+                                                        "--size", "64")]
+    redis_py.Redis.from_url(env["INKMOTION_BROKER_URL"]).flushall()
+    pool.ensure(("idle",))
+    records = wait_all(ids, env["INKMOTION_DB_URL"], timeout=90)
+    assert [r.status for r in records] == ["succeeded"] * 2
+    assert all(one_result_set(services["data"], i) for i in ids)
+    assert "message lost; sent again" in pool.log_path("idle").read_text()
+
+
 @pytest.fixture
 def postgres_services(services: dict) -> Iterator[dict]:
     if postgres_bin_dir() is None:

@@ -386,11 +386,15 @@ def test_a_plan_sent_to_the_plotter_gives_g_code(studio):
 
 
 def test_a_picture_uploaded_is_traced_and_fitted(studio):
+    from urllib.parse import quote
+
     from inkmotion.samples import path_of
 
     data = Path(path_of("brush-scan")).read_bytes()
-    status, d = studio.request("POST", "/api/uploads", data, headers={"X-Filename": "scan.png"})
-    assert status == 200, d
+    # the page percent-encodes the name: a header is Latin-1, and スケッチ.png failed in it
+    status, d = studio.request("POST", "/api/uploads", data,
+                               headers={"X-Filename": quote("スケッチ scan.png")})
+    assert status == 200 and d["name"] == "scan.png", d
     status, d = studio.request("POST", "/api/fits",
                                {"input": {"upload": d["upload"]}, "settings": FAST})
     assert studio.events(d["job"])[-1]["status"] == "succeeded"

@@ -10,7 +10,10 @@ to their queue again. With the defaults (lease 30 s, interval 10 s) a dead worke
 queued again at most 40 s after its last heartbeat and starts as soon as a worker is free.
 When the broker is away (Redis down for longer than a lease: the running task is ended
 by Celery, its lease then expires), a job whose message cannot be sent is put back as
-the reaper found it, and a later look, once the broker is back, sends it.
+the reaper found it, and a later look, once the broker is back, sends it. A worker that
+has had nothing to do for ``INKMOTION_STRANDED_S`` (120 s) also sends again the jobs of
+its queues that stayed queued all that time: their message is lost (Redis emptied, or a
+worker pointed at another job store took it and dropped it).
 
 The broker's own redelivery (the unacknowledged message, after the visibility timeout)
 is kept as a backstop: when it comes, the job has finished and is skipped, so the
@@ -27,6 +30,7 @@ import secrets
 import signal
 import socket
 import threading
+from datetime import timedelta
 from typing import Any
 
 log = logging.getLogger("inkmotion.workers")
@@ -117,8 +121,11 @@ class Reaper:
     """Every ``interval`` seconds, re-queue the jobs whose lease expired and send them to
     their queue (module docstring). One per worker process, a daemon thread."""
 
-    def __init__(self, db_url: str, interval: float) -> None:
+    def __init__(self, db_url: str, interval: float, stranded_s: float = 0.0,
+                 queues: tuple[str, ...] = ()) -> None:
         self.db_url, self.interval = db_url, interval
+        self.stranded_s, self.queues = stranded_s, queues
+        self._idle_since: Any = None  # a UTC datetime while this worker has nothing to do
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="lease-reaper", daemon=True)
 
@@ -146,6 +153,42 @@ class Reaper:
             log.warning("job %s: its lease expired (worker %s stopped); queued again on %s",
                         record.id, record.worker_host, record.queue)
             sent.append(record.id)
+        return sent + self.resend_stranded()
+
+    def resend_stranded(self) -> list[str]:
+        """Send again the jobs of this worker's queues that stayed queued for the last
+        ``stranded_s`` seconds while this worker had nothing to do: their message is lost
+        (Redis emptied, or taken by a worker with another job store, which dropped it),
+        and the store is what says they are wanted. A duplicate of a message still on its
+        way finds the job running or done and does nothing."""
+        from inkmotion.store import claim_stranded, unclaim
+        from inkmotion.store.records import utcnow
+        from inkmotion.workers.app import TASK_NAME, app
+
+        if not self.stranded_s or not self.queues:
+            return []
+        now = utcnow()
+        if _busy():
+            self._idle_since = None
+            return []
+        if self._idle_since is None:
+            self._idle_since = now
+        if (now - self._idle_since).total_seconds() < self.stranded_s:
+            return []
+        sent: list[str] = []  # queued over stranded_s ago, idle all that time: lost
+        claimed = claim_stranded(self.queues, now - timedelta(seconds=self.stranded_s),
+                                 self.db_url)
+        for record, _ in claimed:
+            try:
+                app.send_task(TASK_NAME, args=[record.id], queue=record.queue)
+            except Exception:  # the broker is away: a later look takes them again
+                for left, when in claimed[len(sent):]:
+                    unclaim(left.id, when, self.db_url)
+                raise
+            log.warning("job %s: queued for over %.0f s while this worker was idle, its "
+                        "message lost; sent again on %s", record.id, self.stranded_s,
+                        record.queue)
+            sent.append(record.id)
         return sent
 
     def _run(self) -> None:
@@ -154,6 +197,13 @@ class Reaper:
                 self.sweep()
             except Exception as exc:  # database or broker away: the next look retries
                 log.warning("lease reaper: %s: %s", type(exc).__name__, exc)
+
+
+def _busy() -> bool:
+    """Whether this worker holds a task (running, or received and waiting its turn)."""
+    from celery.worker import state
+
+    return bool(state.active_requests or state.reserved_requests)
 
 
 def install_child_handler(**_: Any) -> None:
@@ -165,11 +215,15 @@ def install_child_handler(**_: Any) -> None:
 _REAPER: Reaper | None = None
 
 
-def start_reaper(**_: Any) -> None:
-    """Start this worker process's reaper (Celery's ``worker_ready`` signal)."""
+def start_reaper(sender: Any = None, **_: Any) -> None:
+    """Start this worker process's reaper (Celery's ``worker_ready`` signal, whose sender
+    is the consumer: its queues are those whose stranded jobs the reaper sends again)."""
     global _REAPER
     from inkmotion.settings import load_settings
 
     if _REAPER is None:
         settings = load_settings()
-        _REAPER = Reaper(settings.db_url, settings.reaper_interval).start()
+        consumer = getattr(sender, "task_consumer", None)
+        queues = tuple(q.name for q in getattr(consumer, "queues", None) or ())
+        _REAPER = Reaper(settings.db_url, settings.reaper_interval, settings.stranded_s,
+                         queues).start()

@@ -173,6 +173,11 @@ def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
         return "cancelled"
     job_dir = settings.job_dir(job_id)
     artifacts = job_dir / "artifacts"
+    unwritable = _cannot_write(job_dir, host)
+    if unwritable is not None:  # retried, it would fail the same way on every attempt
+        log.error("job %s failed: %s", job_id, unwritable)
+        store.mark_failed(job_id, unwritable, db)
+        return "failed"
     with job_log(job_dir / "job.log"):
         attempt = (store.get_job(job_id, db) or record).attempts
         log.info("job %s: attempt %d on %s", job_id, attempt, host)
@@ -225,6 +230,22 @@ def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
             return "cancelled"
         log.info("job %s succeeded in %.1f s", job_id, time.perf_counter() - started)
         return "succeeded"
+
+
+def _cannot_write(job_dir: Path, host: str) -> str | None:
+    """Why worker ``host`` cannot write the job's folder (one sentence), or None. A data
+    directory this worker cannot write (a mount read-only, another user's) raised before
+    the job's log was open: the job went from running to stalled and back, every lease,
+    its error never recorded."""
+    try:
+        job_dir.mkdir(parents=True, exist_ok=True)
+        with open(job_dir / "job.log", "a", encoding="utf-8"):
+            pass
+    except OSError as exc:
+        return (f"worker {host} cannot write the job's folder {job_dir} "
+                f"({exc.strerror or type(exc).__name__}); give INKMOTION_DATA_DIR a folder "
+                "every worker can write, then submit the job again.")
+    return None
 
 
 def _batch_size() -> int:

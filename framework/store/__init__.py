@@ -18,7 +18,8 @@ _DEFINED_IN = {
     "Job": "models",
     "find_job": "reads", "get_job": "reads", "list_jobs": "reads",
     **{name: "repository" for name in (
-        "create_job", "delete_job", "mark_cancelled", "mark_failed", "mark_running",
+        "claim_stranded", "create_job", "delete_job", "mark_cancelled", "mark_failed",
+        "mark_running", "unclaim",
         "mark_succeeded", "new_job_id", "release", "renew_lease", "requeue_expired",
         "unsent", "update_progress", "update_spec")},
 }

@@ -161,6 +161,33 @@ def requeue_expired(db_url: str | None = None) -> list[JobRecord]:
     return requeued
 
 
+def claim_stranded(queues: Iterable[str], before: Any, db_url: str | None = None
+                   ) -> list[tuple[JobRecord, Any]]:
+    """The queued jobs on ``queues`` unchanged since before ``before`` (a datetime), each
+    with its last change, taken by one conditional update (its ``updated_at`` set to now)
+    so that of several idle workers one sends it again; :func:`unclaim` undoes it."""
+    engine = get_engine(_db_url(db_url))
+    with Session(engine) as s:
+        rows = s.execute(select(Job.id, Job.updated_at).where(
+            Job.status == "queued", Job.queue.in_(list(queues)),
+            Job.updated_at < before)).all()
+    claimed = []
+    for job_id, changed in rows:
+        if _update_where(db_url, Job.id == job_id, Job.status == "queued",
+                         Job.updated_at == changed, updated_at=utcnow()):
+            record = get_job(job_id, db_url)
+            if record is not None:
+                claimed.append((record, changed))
+    return claimed
+
+
+def unclaim(job_id: str, changed: Any, db_url: str | None = None) -> bool:
+    """Undo :func:`claim_stranded` (its message could not be sent): ``updated_at`` back to
+    ``changed``, so a later look takes it again."""
+    return _update_where(db_url, Job.id == job_id, Job.status == "queued",
+                         updated_at=changed)
+
+
 def unsent(job_id: str, db_url: str | None = None) -> bool:
     """Undo :func:`requeue_expired` for a job whose message could not be sent (the broker
     away): running again with its lease expired and no owner, as before the reaper looked,

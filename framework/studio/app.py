@@ -287,9 +287,12 @@ async def _json_body(request: Request) -> dict[str, Any]:
 
 # -- inputs and fits ------------------------------------------------------------------------
 async def upload(studio: Studio, request: Request) -> Response:
+    from urllib.parse import unquote
+
     from inkmotion.studio.uploads import check_upload, store_upload
 
-    filename = request.headers.get("x-filename", "")
+    # percent-encoded by the page: a header carries Latin-1 only (スケッチ.png failed)
+    filename = unquote(request.headers.get("x-filename", ""))
     limit = studio.settings.max_input_bytes
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > limit:

@@ -100,7 +100,7 @@
     say("");
     $("upload-status").textContent = "Checking " + file.name + " …";
     state.upload = null;
-    api("POST", "/api/uploads", file, {"X-Filename": file.name}).then(function (d) {
+    api("POST", "/api/uploads", file, {"X-Filename": encodeURIComponent(file.name)}).then(function (d) {
       state.upload = d.upload;
       $("upload-status").textContent = d.name + " (" + Math.round(d.bytes / 1024) + " KB) is ready to fit.";
     }).catch(function (err) {
