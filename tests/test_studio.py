@@ -319,6 +319,14 @@ def test_a_studio_without_a_token_answers_only_to_its_loopback_names(studio):
         assert status == 404 and b"a job id is 32 hexadecimal digits" in text
 
 
+def test_a_word_the_font_cannot_write_is_refused_before_any_job(studio):
+    before = studio.request("GET", "/api/jobs")[1]["jobs"]
+    status, d = studio.request("POST", "/api/fits", {"input": {"text": "Café à Zoë"},
+                                                     "settings": FAST})
+    assert status == 400 and "has no glyph for 'éàë'" in d["error"], d
+    assert studio.request("GET", "/api/jobs")[1]["jobs"] == before
+
+
 def test_a_json_request_over_its_limit_is_refused_unread(studio):
     """A 300-MB JSON body took 1.45 GB of the studio's memory and started a fit."""
     pad = b'{"input": {"text": "hi"}, "settings": {}, "pad": "' + b"x" * (17 * 2**20) + b'"}'
@@ -433,6 +441,29 @@ def test_a_token_guards_a_studio_and_ctrl_c_ends_its_jobs_cleanly(tmp_path):
     assert s.record(job).status == "cancelled"
     assert not (tmp_path / "jobs" / job / "artifacts").exists()
     assert not list((tmp_path / "jobs" / job).glob("artifacts.*"))
+
+
+def test_ctrl_c_ends_a_studio_whose_page_follows_a_fit(tmp_path):
+    """A page following a fit holds its event stream open: Ctrl-C waited for it (40 s,
+    the job fitting on meanwhile). Now the page is closed after a few seconds and the job
+    cancelled."""
+    import signal
+    import threading
+
+    s = Studio(tmp_path)
+    try:
+        job = s.start_long_fit()
+        follow = threading.Thread(target=lambda: s.events(job, timeout=120), daemon=True)
+        follow.start()
+        time.sleep(1.0)
+        started = time.monotonic()
+        os.kill(s.proc.pid, signal.SIGINT)
+        s.proc.wait(20)
+        took = time.monotonic() - started
+    finally:
+        s.stop()
+    assert took < 15, took
+    assert s.record(job).status == "cancelled"
 
 
 @pytest.mark.services

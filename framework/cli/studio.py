@@ -18,6 +18,9 @@ from inkmotion.cli.errors import EXIT_USAGE, fail
 DEFAULT_PORT = 8765
 #: the fewest characters a --token may have off loopback, where it is all that guards
 MIN_TOKEN = 16
+#: seconds Ctrl-C waits for open pages (a fit's event stream never ends by itself) before
+#: closing them and cancelling the jobs that run here
+GRACE_S = 3
 
 
 def is_loopback(host: str) -> bool:
@@ -82,7 +85,8 @@ def studio_cmd(
         app = create_app(settings, token=token, workers=workers, slots=slots or None)
     except InkmotionError as exc:
         fail(exc)
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False)
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False,
+                            timeout_graceful_shutdown=GRACE_S)
     server = uvicorn.Server(config)
     err = Console(stderr=True, highlight=False)
 

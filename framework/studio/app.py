@@ -324,6 +324,9 @@ def fit_spec(studio: Studio, body: dict[str, Any]) -> JobSpec:
         word = str(value).strip()
         if not _WORD.fullmatch(word):
             raise UserError("Type a word of 1 to 40 letters, digits or simple punctuation.")
+        from inkmotion.inputs.hershey import render_text
+
+        render_text(word)  # a letter the font lacks (é) is said now, not by a failed job
         source = "text:" + word
     elif form == "upload":
         path = studio.uploads.get(str(value))
