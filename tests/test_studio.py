@@ -104,9 +104,10 @@ def test_every_picture_the_tracer_reads_can_be_uploaded(name, fmt):
     from PIL import Image
 
     from inkmotion.images.formats import PICTURE_SUFFIXES as SUFFIXES
-    from inkmotion.studio.uploads import KINDS
+    from inkmotion.studio.uploads import KINDS, accepted
 
-    assert set(SUFFIXES) <= set(KINDS)  # one list: the tracer's
+    assert set(SUFFIXES) - {".pdf"} <= set(KINDS)  # one list: the tracer's (a PDF refused,
+    assert ".pdf" not in accepted()  # so not offered as accepted either)
     buffer = io.BytesIO()
     Image.new("L", (64, 48), 255).save(buffer, fmt)
     assert check_upload(name, buffer.getvalue(), MB) == name
