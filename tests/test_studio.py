@@ -320,6 +320,17 @@ def test_a_studio_without_a_token_answers_only_to_its_loopback_names(studio):
         assert status == 404 and b"a job id is 32 hexadecimal digits" in text
 
 
+def test_a_failed_fit_names_the_upload_not_the_server_s_folders(studio):
+    svg = b'<svg xmlns="http://www.w3.org/2000/svg"><path d="M20 20 C 80 180, 120'
+    status, d = studio.request("POST", "/api/uploads", svg, headers={"X-Filename": "bad.svg"})
+    assert status == 200, d
+    status, d = studio.request("POST", "/api/fits", {"input": {"upload": d["upload"]},
+                                                     "settings": FAST})
+    end = studio.events(d["job"])[-1]
+    assert end["status"] == "failed" and end["error"].startswith("bad.svg: "), end
+    assert str(studio.root) not in end["error"]
+
+
 def test_a_word_the_font_cannot_write_is_refused_before_any_job(studio):
     before = studio.request("GET", "/api/jobs")[1]["jobs"]
     status, d = studio.request("POST", "/api/fits", {"input": {"text": "Café à Zoë"},

@@ -140,6 +140,20 @@ def test_an_unwritable_data_dir_or_a_short_id_is_one_sentence(service_env, tmp_p
     assert res.returncode == 1 and "give at least 4 characters of its id" in res.stderr
 
 
+def test_a_queued_job_s_error_names_the_file_as_the_user_gave_it(workers, service_env,
+                                                                  tmp_path):
+    """The worker reads the copy submit made under the data directory; its error named that
+    copy (.../jobs/ID/input/drawing/trunc.gml), not the file the user must fix."""
+    bad = tmp_path / "trunc.gml"
+    bad.write_text("<gml><tag><drawing><stroke><pt><x>0.1</x><y>0.2")
+    (job_id,) = submit(str(bad), *TINY)
+    res = inkmotion_cli("jobs", "wait", job_id, "--timeout", "60", "--quiet", timeout=90)
+    assert res.returncode != 0
+    record = store.get_job(job_id)
+    assert record.status == "failed" and record.error.startswith("trunc.gml: "), record.error
+    assert service_env["INKMOTION_DATA_DIR"] not in record.error
+
+
 def test_unknown_kind_is_refused(service_env):
     res = inkmotion_cli("submit", "paint", "text:hi")
     assert res.returncode == 1 and "Unknown job kind 'paint'" in res.stderr

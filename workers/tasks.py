@@ -209,7 +209,7 @@ def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
             return "lease-lost"
         except InkmotionError as exc:
             log.error("job %s failed: %s", job_id, exc)
-            store.mark_failed(job_id, str(exc), db)
+            store.mark_failed(job_id, _as_named(str(exc), record.spec), db)
             return "failed"
         except SoftTimeLimitExceeded:
             msg = (f"The job ran past the time limit of {settings.soft_time_limit} s; "
@@ -230,6 +230,17 @@ def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
             return "cancelled"
         log.info("job %s succeeded in %.1f s", job_id, time.perf_counter() - started)
         return "succeeded"
+
+
+def _as_named(message: str, spec: dict) -> str:
+    """``message`` naming the job's input files as the user named them, not as the copies
+    submit made under the data directory (:meth:`JobSpec.named_by_file`)."""
+    from inkmotion.jobs.spec import JobSpec
+
+    try:
+        return JobSpec.from_dict(spec).named_by_file(message)
+    except Exception:  # noqa: BLE001 - a spec that does not load fails with its own words
+        return message
 
 
 def _cannot_write(job_dir: Path, host: str) -> str | None:

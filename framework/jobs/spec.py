@@ -71,6 +71,16 @@ class JobSpec:
         """A short description for listings: the inputs' values."""
         return ", ".join(str(v) for v in self.inputs.values())
 
+    def named_by_file(self, message: str) -> str:
+        """``message`` with each input file's full path cut to the file's name: the inputs
+        of a queued or a studio job are copies under the data directory, whose path means
+        nothing to the user (and shows the server's folders)."""
+        for value in self.inputs.values():
+            text = str(value)
+            if Path(text).is_absolute() and len(Path(text).parts) > 1:
+                message = message.replace(text, Path(text).name)
+        return message
+
     def to_dict(self) -> dict[str, Any]:
         return {"version": self.version, "kind": self.kind, "inputs": dict(self.inputs),
                 "seed": self.seed, "device": self.device,

@@ -361,8 +361,9 @@ def run_here(settings: Settings, host: str, job_id: str, spec: JobSpec, queue: A
         live.emit({"type": "end", "status": "failed",
                    "error": "Another process took this job over; see the jobs page."})
     except InkmotionError as exc:
-        store.mark_failed(job_id, str(exc), db)
-        live.emit({"type": "end", "status": "failed", "error": str(exc)})
+        said = spec.named_by_file(str(exc))  # the upload's name, not the server's folders
+        store.mark_failed(job_id, said, db)
+        live.emit({"type": "end", "status": "failed", "error": said})
     except Exception as exc:  # noqa: BLE001 - the page gets the failure, the log the trace
         log.exception("studio job %s crashed", job_id)
         message = f"Internal error {type(exc).__name__}: {exc}."

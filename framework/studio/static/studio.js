@@ -203,6 +203,7 @@
         $("progress-bar").style.width = "0";
         status("Cancelled: nothing was kept.");
       } else {
+        clearResult();  // the last fit's motion, figures and links are not this one's
         status("The fit failed.");
         say(e.error || "The job " + e.status + ".", true);
       }
@@ -357,6 +358,14 @@
       out.push("From the picture: " + r.extraction.strokes + " strokes, " + r.extraction.pen_lifts + " pen lifts.");
     }
     return out;
+  }
+  function clearResult() {
+    state.job = null; state.result = null; state.t = 0;
+    $("figures").innerHTML = ""; $("downloads").innerHTML = "";
+    $("recorded").classList.add("hidden");
+    $("send").classList.add("disabled-block");
+    $("progress-bar").style.width = "0";
+    vctx.fillStyle = "#fbfaf7"; vctx.fillRect(0, 0, view.width, view.height);
   }
   function loadResult(job) {
     return api("GET", "/api/jobs/" + job + "/result").then(function (r) {
