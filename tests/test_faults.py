@@ -55,6 +55,17 @@ def one_result_set(data: Path, job_id: str) -> bool:
             and (folder / "artifacts" / "report.json").is_file())
 
 
+def redis_away(services: dict, seconds: float) -> None:
+    """Redis killed with SIGKILL (its append-only file synced first) and started again on
+    its port ``seconds`` later."""
+    time.sleep(1.5)  # the append-only file is synced every second
+    redis = services["redis"]
+    os.kill(redis.proc.pid, 9)
+    redis.proc.wait(10)
+    time.sleep(seconds)
+    services["redis"] = start_redis(redis.folder, port=redis.port, aof=True)
+
+
 @pytest.fixture
 def services(tmp_path: Path) -> Iterator[dict]:
     """A Redis with AOF, a SQLite store and an empty worker pool in ``tmp_path``."""
@@ -82,12 +93,7 @@ def test_redis_killed_and_restarted_with_aof_loses_no_job(services: dict) -> Non
     while not any(store.get_job(i, db).status == "running" for i in ids):
         assert time.monotonic() < deadline, "no job started"
         time.sleep(0.2)
-    time.sleep(1.5)  # the append-only file is synced every second
-    redis = services["redis"]
-    os.kill(redis.proc.pid, 9)
-    redis.proc.wait(10)
-    time.sleep(3)  # jobs keep running; workers lose the broker
-    services["redis"] = start_redis(redis.folder, port=redis.port, aof=True)
+    redis_away(services, 3)  # jobs keep running; workers lose the broker
     records = wait_all(ids, db, timeout=240)
     assert [r.status for r in records] == ["succeeded"] * len(ids)
     assert all(one_result_set(data, i) for i in ids)
@@ -112,12 +118,7 @@ def test_redis_down_longer_than_a_lease_strands_no_job(services: dict) -> None:
     while store.get_job(job, db).status != "running" or not store.get_job(job, db).step:
         assert time.monotonic() < deadline, "the job did not start"
         time.sleep(0.2)
-    time.sleep(1.5)  # the append-only file is synced every second
-    redis = services["redis"]
-    os.kill(redis.proc.pid, 9)
-    redis.proc.wait(10)
-    time.sleep(12)  # three leases: expired, and the reaper has looked (and failed) often
-    services["redis"] = start_redis(redis.folder, port=redis.port, aof=True)
+    redis_away(services, 12)  # three leases: expired, the reaper failing to send each look
     (record,) = wait_all([job], db, timeout=150)
     assert record.status == "succeeded" and one_result_set(data, job)
     assert record.attempts >= 2  # the ended attempt, then the one the reaper sent
