@@ -77,7 +77,7 @@ class JobSpec:
         nothing to the user (and shows the server's folders)."""
         for value in self.inputs.values():
             text = str(value)
-            if Path(text).is_absolute() and len(Path(text).parts) > 1:
+            if Path(text).is_absolute() and Path(text).name:
                 message = message.replace(text, Path(text).name)
         return message
 

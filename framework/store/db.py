@@ -125,15 +125,11 @@ def _create(url: str, migrate: bool) -> Engine:
     :class:`~inkmotion.errors.ServiceError` in one sentence naming ``INKMOTION_DB_URL``
     (password hidden). A database that cannot be reached raises SQLAlchemy's own error,
     which a worker retries (:func:`unreachable` words it for the command line)."""
-    from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError, NoSuchModuleError
 
     from inkmotion.errors import ServiceError
 
-    try:
-        shown = make_url(url).render_as_string(hide_password=True)
-    except ArgumentError:
-        shown = url.split("@")[-1]
+    shown = _shown(url)
     path = _sqlite_path(url)
     kwargs: dict[str, Any] = {"pool_pre_ping": True}
     try:
@@ -159,15 +155,19 @@ def _create(url: str, migrate: bool) -> Engine:
 def unreachable(exc: BaseException, url: str) -> str:
     """One sentence for a command line whose job store at ``url`` could not be reached or
     written (``exc``, a SQLAlchemy error; a worker retries such errors instead)."""
+    return (f"the job store INKMOTION_DB_URL={_shown(url)} cannot be used ({_reason(exc)}); check "
+            "the URL, that the database is running and that it can be written.")
+
+
+def _shown(url: str) -> str:
+    """``url`` as a message may show it: its password hidden."""
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
     try:
-        shown = make_url(url).render_as_string(hide_password=True)
+        return make_url(url).render_as_string(hide_password=True)
     except ArgumentError:
-        shown = url.split("@")[-1]
-    return (f"the job store INKMOTION_DB_URL={shown} cannot be used ({_reason(exc)}); check "
-            "the URL, that the database is running and that it can be written.")
+        return url.split("@")[-1]
 
 
 def _reason(exc: BaseException) -> str:

@@ -269,13 +269,22 @@ def _job_id(text: str) -> str:
     return text
 
 
+async def _body(request: Request, limit: int) -> bytes:
+    """The request's body, read no further than past ``limit`` bytes (longer than it: the
+    caller refuses it, a huge body never held whole)."""
+    data = bytearray()
+    async for chunk in request.stream():
+        data += chunk
+        if len(data) > limit:
+            break
+    return bytes(data)
+
+
 async def _json_body(request: Request) -> dict[str, Any]:
-    raw = bytearray()
-    async for chunk in request.stream():  # read no further than the limit
-        raw += chunk
-        if len(raw) > MAX_JSON_BYTES:
-            raise UserError(f"The request is over {MAX_JSON_BYTES // 2**20} MB, more than any "
-                            "drawing or setting needs; use the studio's page.", 413)
+    raw = await _body(request, MAX_JSON_BYTES)
+    if len(raw) > MAX_JSON_BYTES:
+        raise UserError(f"The request is over {MAX_JSON_BYTES // 2**20} MB, more than any "
+                        "drawing or setting needs; use the studio's page.", 413)
     try:
         body = json.loads(raw)
     except ValueError:
@@ -298,13 +307,9 @@ async def upload(studio: Studio, request: Request) -> Response:
     if declared and declared.isdigit() and int(declared) > limit:
         raise UserError(f"{filename or 'The upload'}: {int(declared) / 2**20:.1f} MB is above "
                         f"the {limit / 2**20:.0f} MB upload limit; send a smaller file.", 413)
-    data = bytearray()
-    async for chunk in request.stream():
-        data += chunk
-        if len(data) > limit:
-            break
-    name = await asyncio.to_thread(check_upload, filename, bytes(data), limit)
-    path = await asyncio.to_thread(store_upload, studio.upload_dir, name, bytes(data))
+    data = await _body(request, limit)
+    name = await asyncio.to_thread(check_upload, filename, data, limit)
+    path = await asyncio.to_thread(store_upload, studio.upload_dir, name, data)
     key = secrets.token_hex(16)
     studio.uploads[key] = path
     return JSONResponse({"upload": key, "name": name, "bytes": len(data)})

@@ -38,8 +38,8 @@ def _kinds() -> dict[str, tuple[str, tuple[bytes, ...]]]:
 
     kinds: dict[str, tuple[str, tuple[bytes, ...]]] = {
         ".gml": ("tag", ()), ".json": ("tag", ()), ".xml": ("tag", ()), ".svg": ("svg", ())}
-    kinds.update({s: ("picture", PICTURE_MAGIC.get(s, ())) for s in SUFFIXES if s != ".pdf"})
-    return kinds  # a PDF is refused at once (safe_name), as the tracer would refuse it
+    kinds.update({s: ("picture", PICTURE_MAGIC.get(s, ())) for s in SUFFIXES})
+    return kinds
 
 
 #: suffix -> (kind, the first bytes it may start with), see :func:`_kinds`
@@ -48,17 +48,15 @@ _SAFE = re.compile(r"[^A-Za-z0-9_-]+")
 
 
 def accepted() -> str:
-    """The accepted suffixes, for the page's file picker and its sentences."""
-    return ", ".join(sorted(KINDS))
+    """The accepted suffixes, for the page's file picker and its sentences: not .pdf, which
+    the tracer reads only to refuse it with how to export its page as a picture."""
+    return ", ".join(sorted(k for k in KINDS if k != ".pdf"))
 
 
 def safe_name(filename: str) -> str:
     """A file name made from ``filename``: its stem's safe characters (at most 40) and its
     suffix, lower-cased; the suffix must be one of :data:`KINDS`."""
     suffix = Path(filename).suffix.lower()
-    if suffix == ".pdf":
-        raise InputError(f"{_shown(filename)}: a PDF, not a picture; export its page as PNG "
-                         "or JPEG and drop that.")
     if suffix not in KINDS:
         raise InputError(f"{_shown(filename)}: not a drawing the studio reads; give one of "
                          f"{accepted()}.")
