@@ -365,7 +365,9 @@
     $("recorded").classList.add("hidden");
     $("send").classList.add("disabled-block");
     $("progress-bar").style.width = "0";
+    stopPlaying(); $("play").disabled = true; $("clock").textContent = "";
     vctx.fillStyle = "#fbfaf7"; vctx.fillRect(0, 0, view.width, view.height);
+    sctx.fillStyle = "#fff"; sctx.fillRect(0, 0, speed.width, speed.height);
   }
   function loadResult(job) {
     return api("GET", "/api/jobs/" + job + "/result").then(function (r) {
