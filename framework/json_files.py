@@ -23,7 +23,8 @@ def read_json(path: str | Path, error: type[InkmotionError], what: str = "file")
     except OSError as exc:
         raise error(f"{path}: the {what} cannot be read ({exc.strerror}).") from exc
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: is not valid JSON ({exc}).") from exc
+        raise error(f"{path}: is not valid JSON ({exc}); give the {what} as inkmotion "
+                    "wrote it (a truncated copy or an edit may have broken it).") from exc
     except RecursionError as exc:
         raise error(f"{path}: its JSON is nested too deeply to be a {what}; give the "
                     f"{what} inkmotion wrote.") from exc

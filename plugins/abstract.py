@@ -19,6 +19,7 @@ from inkmotion.kinds.generation import AbstractParams
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
     from inkmotion.plugin_host.protocols import JobKind
 
@@ -43,6 +44,12 @@ class AbstractKind:
 
     def steps(self, params: AbstractParams) -> int:
         return params.steps
+
+    def check_inputs(self, job: ResolvedJob) -> None:
+        """Refuse a photo the run could not read (``inkmotion submit`` asks first)."""
+        from inkmotion.kinds.read import check_photo_input
+
+        check_photo_input(job)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds.generation import run_abstract

@@ -24,6 +24,7 @@ from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
     from inkmotion.plugin_host.protocols import JobKind
 
@@ -78,6 +79,12 @@ class DrawKind:
 
     def steps(self, params: DrawParams) -> int:
         return 6
+
+    def check_inputs(self, job: ResolvedJob) -> None:
+        """Refuse a plan.json the run could not read (``inkmotion submit`` asks first)."""
+        from inkmotion.kinds.read import check_plan_input
+
+        check_plan_input(job)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds.draw import run_draw

@@ -13,6 +13,7 @@ from inkmotion.kinds.fit import FitParams
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
     from inkmotion.plugin_host.protocols import JobKind
 
@@ -40,6 +41,12 @@ class FitKind:
 
     def steps(self, params: FitParams) -> int:
         return params.steps
+
+    def check_inputs(self, job: ResolvedJob) -> None:
+        """Refuse a drawing the fit could not read (``inkmotion submit`` asks first)."""
+        from inkmotion.kinds.fit import check_inputs
+
+        check_inputs(job)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds import fit

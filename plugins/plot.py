@@ -20,6 +20,7 @@ from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
     from inkmotion.plugin_host.protocols import JobKind
 
@@ -78,6 +79,12 @@ class PlotKind:
 
     def steps(self, params: PlotParams) -> int:
         return 3
+
+    def check_inputs(self, job: ResolvedJob) -> None:
+        """Refuse a plan.json the run could not read (``inkmotion submit`` asks first)."""
+        from inkmotion.kinds.read import check_plan_input
+
+        check_plan_input(job)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds.plot import run_plot

@@ -26,6 +26,7 @@ from inkmotion.jobs.params import PluginChoice, param, plugin_param
 from inkmotion.plugin_host import hookimpl
 
 if TYPE_CHECKING:
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
     from inkmotion.plugin_host.protocols import JobKind
 
@@ -67,6 +68,12 @@ class SimulateKind:
 
     def steps(self, params: SimulateParams) -> int:
         return 2 + len(params.backends)  # timing, joints, one per backend
+
+    def check_inputs(self, job: ResolvedJob) -> None:
+        """Refuse a plan.json the run could not read (``inkmotion submit`` asks first)."""
+        from inkmotion.kinds.read import check_plan_input
+
+        check_plan_input(job)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds.simulate import run_simulate

@@ -140,13 +140,50 @@ def test_an_unwritable_data_dir_or_a_short_id_is_one_sentence(service_env, tmp_p
     assert res.returncode == 1 and "give at least 4 characters of its id" in res.stderr
 
 
-def test_a_queued_job_s_error_names_the_file_as_the_user_gave_it(workers, service_env,
+@pytest.mark.parametrize("kind, name, content, message", [
+    ("fit", "trunc.gml", "<gml><tag><drawing><stroke><pt><x>0.1</x><y>0.2", "trunc.gml: "),
+    ("fit", "empty.json", "", "the file is empty"),
+    ("fit", "blank.png", None, "blank.png: "),
+    ("plot", "plan.json", '{"plans": [', "is not valid JSON"),
+    ("simulate", "plan.json", '{"plans": "none"}', "plan.json: "),
+])
+def test_an_input_its_run_would_refuse_is_refused_before_queueing(service_env, tmp_path,
+                                                                   kind, name, content,
+                                                                   message):
+    """submit read nothing but the file's size: a truncated tag, an empty file or a blank
+    picture was queued and failed later on a worker. Each kind's check_inputs now reads it
+    as the run will, and the same sentence comes at once, with nothing recorded."""
+    bad = tmp_path / name
+    if content is None:  # a white picture: nothing to trace
+        import cv2
+        import numpy as np
+
+        cv2.imwrite(str(bad), np.full((64, 64), 255, np.uint8))
+    else:
+        bad.write_text(content)
+    before = len(store.list_jobs(limit=None))
+    res = inkmotion_cli("submit", kind, str(bad))
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
+    assert message in res.stderr and str(bad) in res.stderr, res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert len(store.list_jobs(limit=None)) == before
+
+
+def test_a_queued_job_s_error_names_the_file_as_the_user_gave_it(worker_pool, service_env,
                                                                   tmp_path):
     """The worker reads the copy submit made under the data directory; its error named that
-    copy (.../jobs/ID/input/drawing/trunc.gml), not the file the user must fix."""
-    bad = tmp_path / "trunc.gml"
-    bad.write_text("<gml><tag><drawing><stroke><pt><x>0.1</x><y>0.2")
-    (job_id,) = submit(str(bad), *TINY)
+    copy (.../jobs/ID/input/drawing/trunc.gml), not the file the user must fix. (submit
+    refuses a bad file itself, so here the copy is spoilt after submit, while no worker
+    runs: a data directory damaged between submit and run.)"""
+    from inkmotion.settings import load_settings
+
+    worker_pool.stop_all()
+    good = tmp_path / "trunc.gml"
+    shutil.copy(DATA / "tag.gml", good)
+    (job_id,) = submit(str(good), *TINY)
+    copy = load_settings().job_dir(job_id) / "input" / "drawing" / "trunc.gml"
+    copy.write_text("<gml><tag><drawing><stroke><pt><x>0.1</x><y>0.2")
+    worker_pool.ensure()
     res = inkmotion_cli("jobs", "wait", job_id, "--timeout", "60", "--quiet", timeout=90)
     assert res.returncode != 0
     record = store.get_job(job_id)

@@ -87,7 +87,9 @@ def submit_specs(specs: list[JobSpec], settings: Settings | None = None) -> list
     """Validate every spec, then queue one job per spec; returns their records.
 
     Raises :class:`~inkmotion.errors.InkmotionError` before anything is recorded when a
-    spec is invalid or the broker is unreachable.
+    spec is invalid, an input is one its kind's run would refuse (the kind's
+    ``check_inputs``: a malformed or truncated file, a blank picture), or the broker is
+    unreachable.
     """
     from inkmotion import store
     from inkmotion.jobs.kind import resolve
@@ -97,6 +99,10 @@ def submit_specs(specs: list[JobSpec], settings: Settings | None = None) -> list
     resolved = [resolve(spec) for spec in specs]
     for spec in specs:
         check_input_size(spec, settings)
+    for job in resolved:
+        check_inputs = getattr(job.kind, "check_inputs", None)
+        if check_inputs is not None:  # a worker would refuse it: say so now, queue nothing
+            check_inputs(job)
     check_broker(settings)
     records: list[JobRecord] = []
     with _connection(settings) as conn:

@@ -26,6 +26,7 @@ from inkmotion.kinds.optimisation import MAX_CANVAS, OptimisationParams
 
 if TYPE_CHECKING:
     from inkmotion.fitting.stages import RefineSettings, StagedFit, StagedProblem
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
 
 
@@ -208,10 +209,8 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
     p: FitParams = job.params
     dtype = torch.float32
     source = job.spec.inputs["drawing"]
-    traces = _read(job, source).fit_to_canvas(p.size)
+    traces, width = read_drawing(job.resolved)
     canvas = (int(traces.width), int(traces.height))
-    width = _pen_width(traces, p)
-    _check_pen(traces, width, source)
     renderer = job.renderer(p.renderer)
     plans = initial_plans(job, p.initialiser,
                           JobInputs(canvas, traces=traces, targets=target_count(p.targets)),
@@ -254,21 +253,37 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
                           p.refine_settings()), finish
 
 
-def _read(job: Job, source: str) -> Any:
-    """The traces of ``source``: a picture through the job's tracer (``--invert``,
-    ``--varying-width``), anything else through the readers."""
+def read_drawing(job: ResolvedJob) -> tuple[Any, float]:
+    """The drawing of a fit job on its canvas, and its pen's width there: the input read as
+    the job reads it (a picture through its tracer, with ``--invert`` and
+    ``--varying-width``; anything else through the readers), scaled to ``--size``, a
+    picture's pen checked. Raises :class:`~inkmotion.errors.InputError` on an input the fit
+    refuses: ``inkmotion submit`` calls it before queueing (:meth:`check_inputs`)."""
+    from inkmotion.jobs.params import options_dict
     from inkmotion.kinds.read import read_input, trace_input
     from inkmotion.samples import locate
     from inkmotion.tracing.picture import is_picture
 
     p: FitParams = job.params
+    source = job.spec.inputs["drawing"]
     if p.reader is None and is_picture(locate(source)):
         traces, _ = trace_input(source, job.plugin(p.tracer), invert=p.invert,
-                                varying_width=p.varying_width, **job.options(p.tracer))
-        return traces
-    if p.reader is None:
-        return read_input(source)
-    return read_input(source, reader=p.reader.name, options=job.options(p.reader))
+                                varying_width=p.varying_width,
+                                **options_dict(job.options_of(p.tracer)))
+    elif p.reader is None:
+        traces = read_input(source)
+    else:
+        traces = read_input(source, reader=p.reader.name,
+                            options=options_dict(job.options_of(p.reader)))
+    traces = traces.fit_to_canvas(p.size)
+    width = _pen_width(traces, p)
+    _check_pen(traces, width, source)
+    return traces, width
+
+
+def check_inputs(job: ResolvedJob) -> None:
+    """Refuse, with the sentence the run would give, a drawing the fit cannot read."""
+    read_drawing(job)
 
 
 #: learning rate of a 2.5D plan's radius, px (the generation kinds' default)

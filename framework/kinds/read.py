@@ -9,13 +9,16 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from inkmotion.errors import InputError, PluginError
 from inkmotion.geometry.traces import Traces
 from inkmotion.inputs.sources import is_scheme
 from inkmotion.plugin_host import host
 from inkmotion.samples import locate
+
+if TYPE_CHECKING:
+    from inkmotion.jobs.kind import ResolvedJob
 
 
 def read_input(source: str, reader: str | None = None,
@@ -101,3 +104,20 @@ def trace_input(source: str, tracer: Any, *, invert: bool = False,
     traces.meta.setdefault("extraction", {})["seconds_with_decoding"] = round(
         time.perf_counter() - start, 4)
     return traces, picture
+
+
+def check_plan_input(job: ResolvedJob, name: str = "plan") -> None:
+    """Refuse, with the sentence the run would give, input ``name`` of ``job`` when it is
+    not a plan.json inkmotion can read (a job kind's ``check_inputs``)."""
+    from inkmotion.sigma_lognormal import Drawing
+
+    Drawing.load(locate(job.spec.inputs[name]))
+
+
+def check_photo_input(job: ResolvedJob, name: str = "image") -> None:
+    """Refuse, with the sentence the run would give, input ``name`` of ``job`` when it is
+    not a picture inkmotion can read, or a blank one at the job's ``size`` (a job kind's
+    ``check_inputs``)."""
+    from inkmotion.images.load import load_image
+
+    load_image(locate(job.spec.inputs[name]), job.params.size)

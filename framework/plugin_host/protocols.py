@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     import torch
 
     from inkmotion.geometry.traces import Traces
+    from inkmotion.jobs.kind import ResolvedJob
     from inkmotion.jobs.shell import Job
     from inkmotion.robot.types import RobotProgram
     from inkmotion.sigma_lognormal.plan import MotorPlan
@@ -105,6 +106,12 @@ class JobKindOptional(PluginOptional, Protocol):
         """Run several jobs of this kind (same parameters, other inputs and seeds) as one
         batched optimisation: each job's report, or the exception it failed with, in
         order (``inkmotion.jobs.shell.run_jobs_together``)."""
+
+    def check_inputs(self, job: ResolvedJob) -> None:
+        """Read the job's inputs as :meth:`run` will and raise
+        :class:`~inkmotion.errors.InputError` (one sentence) on one it would refuse:
+        ``inkmotion submit`` calls it, so such a job is refused before it is queued
+        rather than failed later on a worker. Cheap next to the job; no artifacts."""
 
 
 # -- readers and initialisers ----------------------------------------------------------
