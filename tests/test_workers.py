@@ -215,8 +215,10 @@ def _running(job_id: str, min_step: int = 5) -> store.JobRecord | None:
 
 
 def test_cancel_a_running_job(workers, service_env):
+    """... and its checkpoint goes with it: a cancelled job never resumes."""
     (job_id,) = submit("text:hello", "--steps", "3000", "--size", "128")
-    wait_for(lambda: _running(job_id), 60)
+    checkpoint = Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "checkpoint.pt"
+    wait_for(lambda: _running(job_id, min_step=60) and checkpoint.is_file(), 90)
     res = inkmotion_cli("jobs", "cancel", job_id)
     assert res.returncode == 0, res.stderr
     log = Path(service_env["INKMOTION_DATA_DIR"]) / "jobs" / job_id / "job.log"
@@ -225,6 +227,7 @@ def test_cancel_a_running_job(workers, service_env):
     assert r.status == "cancelled" and r.finished_at is not None
     assert not (log.parent / "artifacts").exists()
     assert list(log.parent.glob("artifacts*")) == []  # the staging folder was removed
+    wait_for(lambda: not checkpoint.exists(), 10)
     assert inkmotion_cli("jobs", "wait", job_id, "-q").returncode == 1
     again = inkmotion_cli("jobs", "cancel", job_id)
     assert again.returncode == 1 and "already cancelled" in again.stderr

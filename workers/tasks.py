@@ -196,6 +196,7 @@ def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
                 report = _execute(job_id, record.spec, artifacts, db, owner, beat, settings)
         except JobCancelled:
             log.info("job %s: cancelled while running; stopped", job_id)
+            remove_checkpoint(job_dir / "checkpoint.pt")  # never resumed: no dead weight
             return "cancelled"
         except HandBack:
             if store.release(job_id, owner, db):
@@ -210,12 +211,14 @@ def _run(task: Any, job_id: str, settings: Any, alone: bool = False) -> str:
         except InkmotionError as exc:
             log.error("job %s failed: %s", job_id, exc)
             store.mark_failed(job_id, _as_named(str(exc), record.spec), db)
+            remove_checkpoint(job_dir / "checkpoint.pt")
             return "failed"
         except SoftTimeLimitExceeded:
             msg = (f"The job ran past the time limit of {settings.soft_time_limit} s; "
                    "reduce --steps or raise INKMOTION_SOFT_TIME_LIMIT.")
             log.error("job %s failed: %s", job_id, msg)
             store.mark_failed(job_id, msg, db)
+            remove_checkpoint(job_dir / "checkpoint.pt")
             return "failed"
         except transient_errors():
             raise
