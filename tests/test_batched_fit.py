@@ -117,7 +117,7 @@ def test_fit_jobs_run_together_report_each_its_own_fit(tmp_path):
     edits depend on the fit, so round-off can tip an edit: the goal is the same quality),
     each job's own artifacts, and a job whose input cannot be read fails alone."""
     from inkmotion.errors import InputError
-    from inkmotion.jobs.shell import Together, run_job, run_jobs_together
+    from inkmotion.jobs.shell import Together, run_job, run_jobs_together, unlike_the_record
 
     words = ["text:hi", "text:ok", "text:go"]
     specs = _fit_specs(words, 60)
@@ -140,6 +140,26 @@ def test_fit_jobs_run_together_report_each_its_own_fit(tmp_path):
         saved = json.loads((tmp_path / f"together{k}" / "report.json").read_text())
         assert saved["chamfer_max_px"] == many["chamfer_max_px"]
         assert (tmp_path / f"together{k}" / "plan.json").is_file()
+        # job.json says the plan came from a batch, and a rerun of it alone says why its
+        # plan may differ (its batch-mates are not in it)
+        job_json = json.loads((tmp_path / f"together{k}" / "job.json").read_text())
+        assert job_json["batch"] == 4
+        assert any("a worker's batch of 4 drawings" in s
+                   for s in unlike_the_record(job_json, specs[k]))
+        alone_json = json.loads((tmp_path / f"alone{k}" / "job.json").read_text())
+        assert "batch" not in alone_json and unlike_the_record(alone_json, specs[k]) == []
+
+
+def test_a_rerun_on_another_cpu_code_path_says_its_last_bits_may_differ():
+    from inkmotion.jobs.shell import machine, unlike_the_record
+
+    spec = _fit_specs(["text:a"], 3)[0]
+    here = machine()["cpu_capability"]
+    other = "DEFAULT" if here != "DEFAULT" else "AVX2"
+    said = unlike_the_record({"machine": {"cpu_capability": other}}, spec)
+    assert len(said) == 1 and f"torch's {other} CPU code path" in said[0]
+    assert f"ATEN_CPU_CAPABILITY={other.lower()}" in said[0]
+    assert unlike_the_record({"machine": {"cpu_capability": here}}, spec) == []
 
 
 def test_report_records_the_thread_count(tmp_path):

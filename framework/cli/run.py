@@ -101,23 +101,23 @@ def _run_kind(kind_name: str, inputs: list[str], values: dict[str, Any]) -> None
     except InkmotionError as exc:
         fail(exc)
     if config is not None:
-        _say_changed_inputs(config, spec)
+        _say_unlike_the_record(config, spec)
     execute(spec, out_dir, record, as_json, force)
 
 
-def _say_changed_inputs(config: Path, spec: Any) -> None:
-    """A warning for each input file whose bytes differ from those ``config`` (a job.json)
-    records: the rerun cannot reproduce its result."""
+def _say_unlike_the_record(config: Path, spec: Any) -> None:
+    """A warning for each reason a rerun of ``config`` (a job.json) may not reproduce its
+    result (:func:`inkmotion.jobs.shell.unlike_the_record`)."""
     import json
 
-    from inkmotion.jobs.shell import changed_inputs
+    from inkmotion.jobs.shell import unlike_the_record
 
     try:
         recorded = json.loads(Path(config).read_text())
     except (OSError, ValueError):
         return
     if isinstance(recorded, dict):
-        for said in changed_inputs(recorded, spec):
+        for said in unlike_the_record(recorded, spec):
             typer.secho(f"warning: {said}", fg="yellow", err=True)
 
 

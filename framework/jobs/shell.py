@@ -350,6 +350,8 @@ def run_jobs_together(jobs: Sequence[Together], *, record: bool = False,
                 if isinstance(outcome, BaseException):
                     continue
                 _finished(shell, outcome, threads)["batch"] = len(shells)
+                # job.json says so too: a rerun alone agrees only up to round-off
+                outcome.setdefault("provenance", {})["batch"] = len(shells)
                 record_job(shell.folder, shell.resolved.full_spec(), outcome)
                 shell.observers.on_end(outcome)
             for group in groups:
@@ -434,6 +436,39 @@ def changed_inputs(job_json: dict[str, Any], spec: JobSpec) -> list[str]:
                         "bytes differ from those it records), so this run may not "
                         "reproduce the recorded result")
     return said
+
+
+def unlike_the_record(job_json: dict[str, Any], spec: JobSpec) -> list[str]:
+    """One sentence per reason a rerun of the job.json ``job_json`` here may not give its
+    recorded result: an input file whose bytes changed (:func:`changed_inputs`), a plan
+    made in a worker's batch (whose batched arithmetic agrees with a fit alone only up to
+    float round-off), or torch's CPU code path other than the one it recorded."""
+    said = changed_inputs(job_json, spec)
+    batch = job_json.get("batch")
+    if isinstance(batch, int) and batch > 1:
+        said.append(f"this job was fitted in a worker's batch of {batch} drawings, whose "
+                    "batched arithmetic agrees with a fit alone only up to float round-off, "
+                    "so run alone its plan may differ (a worker with --batch 1 makes plans "
+                    "that reproduce exactly)")
+    was = (job_json.get("machine") or {}).get("cpu_capability")
+    now = machine()["cpu_capability"]
+    if isinstance(was, str) and now is not None and was != now and _on_the_cpu(spec):
+        how = (f" (ATEN_CPU_CAPABILITY={was.lower()} runs the recorded path where the CPU "
+               "has it)" if was in ("AVX512", "AVX2", "DEFAULT") else "")
+        said.append(f"this job ran on torch's {was} CPU code path and this machine runs "
+                    f"{now}, whose kernels round some functions differently, so the plan's "
+                    f"last bits may differ{how}")
+    return said
+
+
+def _on_the_cpu(spec: JobSpec) -> bool:
+    from inkmotion.devices import resolve_device
+    from inkmotion.errors import InkmotionError
+
+    try:
+        return resolve_device(spec.device).type == "cpu"
+    except InkmotionError:
+        return False
 
 
 def machine() -> dict[str, Any]:
