@@ -393,8 +393,12 @@ def test_a_plan_sent_to_the_plotter_gives_g_code(studio):
     status, d = studio.request("POST", f"/api/jobs/{fit}/send", {"kind": "plot", "paper": "B9"})
     assert status == 400 and "paper is one of" in d["error"]
     status, d = studio.request("POST", f"/api/jobs/{fit}/send",
-                               {"kind": "draw", "robot": "a b; rm -rf /"})
+                               {"kind": "draw", "robot": "a b; rm -rf /", "dry_run": True})
     assert status == 400 and "robot's address" in d["error"]
+    # a script that leaves dry_run out does not move an arm by default: it must say
+    status, d = studio.request("POST", f"/api/jobs/{fit}/send",
+                               {"kind": "draw", "robot": "127.0.0.1"})
+    assert status == 400 and "dry_run" in d["error"], d
     status, d = studio.request("POST", f"/api/jobs/{fit}/send",  # no robot listens there
                                {"kind": "draw", "robot": "127.0.0.1", "dry_run": True})
     end = studio.events(d["job"])[-1]

@@ -399,6 +399,9 @@ async def send(studio: Studio, request: Request) -> Response:
     kind = str(body.get("kind"))
     if kind not in SEND_KINDS:
         raise UserError(f"A plan is sent to {', '.join(SEND_KINDS)}; not {kind!r}.")
+    if kind == "draw" and "dry_run" not in body:  # the page always says; a script must too
+        raise UserError("A draw moves a real arm: say whether it is a dry run, "
+                        '"dry_run": true (connect and check only) or false (draw).')
     plan = artifacts_of(studio.settings, job_id) / "plan.json"
     if not plan.is_file():
         raise UserError("This job has no finished plan yet; wait for the fit to end.", 409)
