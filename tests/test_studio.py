@@ -438,6 +438,24 @@ def test_a_recording_opens_in_rerun_s_web_viewer(studio):
     assert studio.request("POST", "/api/jobs/" + "0" * 32 + "/rerun", {})[0] == 404
 
 
+def test_the_studio_s_rerun_viewer_sends_no_usage_statistics(tmp_path):
+    """The viewer ran with RERUN_ANALYTICS=0, which the rerun binary never reads: its usage
+    statistics were on (and its first run wrote the user's own ~/.config/rerun). Asked with
+    the viewer's environment, the real binary now says they are off."""
+    from inkmotion.recording import rerun_binary
+    from inkmotion.studio.viewer import quiet_env
+
+    binary = rerun_binary()
+    if binary is None:
+        pytest.skip("the rerun binary is not installed")
+    res = subprocess.run([binary, "analytics", "config"], env=quiet_env(tmp_path),
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    config = json.loads(res.stdout[res.stdout.index("{"):])
+    assert config["analytics_enabled"] is False
+    assert config["config_file_path"].startswith(str(tmp_path))
+
+
 def test_a_token_guards_a_studio_and_ctrl_c_ends_its_jobs_cleanly(tmp_path):
     s = Studio(tmp_path, "--token", "s3cret")
     try:

@@ -5,12 +5,19 @@ on loopback and on ports picked free here; the page opens the viewer's address, 
 the gRPC one. One viewer at a time: opening another recording stops the last, and so does
 the studio's end. The viewer is reachable from this machine only (its ports listen on
 loopback whatever the studio's ``--host``); elsewhere, download recording.rrd.
+
+The ``rerun`` binary sends usage statistics unless its config file says not to (it reads
+no environment switch but ``CI``); the studio's viewer runs with a config folder of its
+own whose ``analytics.json`` turns them off (:func:`quiet_env`), so serving a recording
+sends nothing anywhere and leaves the user's own rerun settings as they are.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
+import tempfile
 import threading
 import time
 import urllib.parse
@@ -29,6 +36,13 @@ class RerunViewer:
     def __init__(self) -> None:
         self._proc: subprocess.Popen | None = None
         self._lock = threading.Lock()
+        self._config: tempfile.TemporaryDirectory | None = None
+
+    def _home(self) -> Path:
+        """The viewer's own config folder (made once, removed with the studio's end)."""
+        if self._config is None:
+            self._config = tempfile.TemporaryDirectory(prefix="inkmotion-rerun-")
+        return Path(self._config.name)
 
     def open(self, recording: Path) -> str:
         """Serve ``recording``; the viewer's address. :class:`ServiceError` (one sentence)
@@ -43,7 +57,7 @@ class RerunViewer:
         with self._lock:
             self.close()
             grpc, web = free_port(), free_port()
-            env = {**os.environ, "RERUN_ANALYTICS": "0"}
+            env = quiet_env(self._home())
             self._proc = subprocess.Popen(
                 [binary, "--serve-web", "--bind", HOST, "--port", str(grpc),
                  "--web-viewer-port", str(web), str(recording)],
@@ -71,3 +85,25 @@ class RerunViewer:
         proc, self._proc = self._proc, None
         if proc is not None:
             stop_process(proc, grace=5)
+
+
+def quiet_env(home: Path) -> dict[str, str]:
+    """This process's environment for a ``rerun`` binary whose config and data folders lie
+    in ``home``, with an ``analytics.json`` there that turns its usage statistics off
+    (where the binary looks for it: XDG folders on Linux, ``~/Library/Application
+    Support`` on macOS, the app-data folders on Windows)."""
+    places = {  # variable -> the rerun folder under it that holds its config
+        "XDG_CONFIG_HOME": home / "config" / "rerun",
+        "HOME": home / "Library" / "Application Support" / "rerun",
+        "APPDATA": home / "AppData" / "Roaming" / "rerun" / "config",
+    }
+    for folder in places.values():
+        folder.mkdir(parents=True, exist_ok=True)
+        config = {"analytics_enabled": False, "analytics_id": "inkmotion-studio",
+                  "metadata": {}, "config_file_path": str(folder / "analytics.json"),
+                  "data_dir_path": str(home / "data" / "rerun" / "analytics")}
+        (folder / "analytics.json").write_text(json.dumps(config))
+    return {**os.environ, "XDG_CONFIG_HOME": str(home / "config"),
+            "XDG_DATA_HOME": str(home / "data"), "HOME": str(home),
+            "APPDATA": str(home / "AppData" / "Roaming"),
+            "LOCALAPPDATA": str(home / "AppData" / "Local")}
