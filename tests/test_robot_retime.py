@@ -69,3 +69,20 @@ def test_the_arm_models_are_known_by_name() -> None:
     assert np.all(FR3.acceleration <= PANDA.acceleration.max())
     with pytest.raises(InputError, match="unknown Franka model 'ur5'"):
         arm_limits("ur5")
+
+
+def test_a_retimed_program_s_timing_figures_are_the_arm_s() -> None:
+    """report.json's timing block kept the first timing's total, peaks and sample count
+    after a slow-down (19.7 s of "total_s" for a 102 s program)."""
+    cart, joints = program(0.6, np.array([0.6, 0.3, 0.0, 0.5, 0.8, 0.6, 0.0]))
+    cart.info.update(total_s=0.6, drawing_s=0.4, transfer_s=0.2, time_scale=2.0,
+                     peak_speed=1.0, peak_acc=4.0, samples=len(cart.t))
+    cart2, joints2, info = fit_to_limits(cart, joints, FR3, fraction=0.9, position_margin=0.05)
+    k = info["retime_factor"]
+    assert k > 1.0 and cart2.info["retime_factor"] == k
+    assert cart2.info["total_s"] == pytest.approx(0.6 * k)
+    assert cart2.info["drawing_s"] + cart2.info["transfer_s"] == pytest.approx(0.6 * k)
+    assert cart2.info["time_scale"] == pytest.approx(2.0 * k)
+    assert cart2.info["peak_speed"] == pytest.approx(1.0 / k)
+    assert cart2.info["peak_acc"] == pytest.approx(4.0 / k**2)
+    assert cart2.info["samples"] == len(cart2.t) == len(joints2.t)

@@ -69,7 +69,6 @@ class _Problem:
     """What stays fixed while the knots move."""
 
     pen: PenModel
-    normal: np.ndarray  # (3,) unit, the pen points along −normal
     home: np.ndarray  # (7,) the posture the redundancy is pulled toward
     lower: np.ndarray  # (7,) joint limits shrunk by the margin
     upper: np.ndarray  # (7,)
@@ -83,6 +82,7 @@ class _Knots:
     index: np.ndarray  # (K,) control samples of the knots
     tau: np.ndarray  # (K,) s
     target: np.ndarray  # (K, 3) m
+    normal: np.ndarray  # (K, 3) unit: the pen points along −normal[k] at knot k
     weight: np.ndarray  # (K,) trapezoid weights w_k, s
     smoothing: sp.csr_matrix  # (K, K) D: ½ Σ_j Q[:, j]ᵀ D Q[:, j] = velocity + acceleration
     fixed_first: bool  # q_0 is given (the robot's current configuration)
@@ -108,15 +108,15 @@ def smoothing_matrix(tau: np.ndarray, weights: TrackingWeights) -> sp.csr_matrix
     return (velocity + acceleration).tocsr()
 
 
-def _make_knots(index: np.ndarray, t: np.ndarray, position: np.ndarray,
+def _make_knots(index: np.ndarray, t: np.ndarray, position: np.ndarray, normal: np.ndarray,
                 weights: TrackingWeights, fixed_first: bool) -> _Knots:
     tau = t[index]
     weight = np.ones(len(index))
     if len(index) > 1:
         h = np.diff(tau)
         weight = np.concatenate([h, [0.0]]) / 2.0 + np.concatenate([[0.0], h]) / 2.0
-    return _Knots(index, tau, position[index], weight, smoothing_matrix(tau, weights),
-                  fixed_first)
+    return _Knots(index, tau, position[index], normal[index], weight,
+                  smoothing_matrix(tau, weights), fixed_first)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -124,15 +124,15 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return (a[..., [1, 2, 0]] * b[..., [2, 0, 1]]) - (a[..., [2, 0, 1]] * b[..., [1, 2, 0]])
 
 
-def _pen_residuals(problem: _Problem, q: np.ndarray, target: np.ndarray,
+def _pen_residuals(problem: _Problem, q: np.ndarray, target: np.ndarray, normal: np.ndarray,
                    data: object = None) -> tuple[np.ndarray, np.ndarray]:
     """The scaled pen residuals r (K, 6) at q (K, 7) and their Jacobians (K, 6, 7):
     position (p − x)/σ_p with rows J_v/σ_p, axis (a + n)/σ_o with columns (J_ω,j × a)/σ_o
-    (ȧ = ω × a; rank 2, the rotation about a is free)."""
+    (ȧ = ω × a; rank 2, the rotation about a is free); ``normal`` (K, 3) the n per knot."""
     positions, axes, jac = pen_jacobians(problem.pen, q, data)
     w = problem.weights
     r = np.concatenate([(positions - target) / w.position,
-                        (axes + problem.normal) / w.orientation], axis=1)
+                        (axes + normal) / w.orientation], axis=1)
     j_axis = _cross(np.swapaxes(jac[:, 3:], 1, 2), axes[:, None, :])  # (K, 7, 3)
     j = np.concatenate([jac[:, :3] / w.position, np.swapaxes(j_axis, 1, 2) / w.orientation],
                        axis=1)
@@ -150,7 +150,7 @@ def _task_terms(problem: _Problem, q: np.ndarray, knots: _Knots
                 ) -> tuple[float, np.ndarray, np.ndarray]:
     """The per-knot part of E at q (K, 7): its value, gradient (K, 7) and Gauss–Newton
     Hessian blocks (K, 7, 7), w_k (JᵀJ + I/σ_h²)."""
-    r, j = _pen_residuals(problem, q, knots.target)
+    r, j = _pen_residuals(problem, q, knots.target, knots.normal)
     w, sigma_h = knots.weight, problem.weights.posture
     r_home = (q - problem.home) / sigma_h
     value = 0.5 * float(w @ (np.sum(r**2, axis=1) + np.sum(r_home**2, axis=1)))
@@ -179,7 +179,7 @@ def _cost_value(problem: _Problem, q: np.ndarray, knots: _Knots) -> float:
     w = problem.weights
     positions, axes = pen_poses(problem.pen, q)
     r2 = (np.sum((positions - knots.target) ** 2, axis=1) / w.position**2
-          + np.sum((axes + problem.normal) ** 2, axis=1) / w.orientation**2
+          + np.sum((axes + knots.normal) ** 2, axis=1) / w.orientation**2
           + np.sum((q - problem.home) ** 2, axis=1) / w.posture**2)
     return 0.5 * float(knots.weight @ r2) + 0.5 * float(np.sum(q * (knots.smoothing @ q))) \
         + barrier
@@ -263,7 +263,7 @@ def _limited(step: np.ndarray, max_step: float) -> np.ndarray:
 def _corrected(problem: _Problem, q: np.ndarray, knots: _Knots) -> np.ndarray:
     """q + the per-knot minimum-norm step onto the pen path, where it stays inside the
     limits (else q unchanged at that knot); a fixed first knot is left as it is."""
-    r, j = _pen_residuals(problem, q, knots.target)
+    r, j = _pen_residuals(problem, q, knots.target, knots.normal)
     moved = q + _minimum_norm_step(r, j)
     inside = np.all((moved > problem.lower) & (moved < problem.upper), axis=1)
     inside[0] &= not knots.fixed_first
@@ -278,8 +278,8 @@ def _max_feasible_step(problem: _Problem, q: np.ndarray, step: np.ndarray) -> fl
     return float(min(1.0, 0.95 * np.min(to_wall)))
 
 
-def _sweep(problem: _Problem, q0: np.ndarray, targets: np.ndarray, steps: int = 1,
-           max_step: float = np.inf) -> np.ndarray:
+def _sweep(problem: _Problem, q0: np.ndarray, targets: np.ndarray, normals: np.ndarray,
+           steps: int = 1, max_step: float = np.inf) -> np.ndarray:
     """Warm start (K, 7): knot by knot from q0, ``steps`` minimum-norm steps on the pen
     residuals from the previous knot's solution (so the posture changes as little as
     possible), clipped 1 % inside the limits. The knots are millimetres apart, so one step
@@ -291,28 +291,29 @@ def _sweep(problem: _Problem, q0: np.ndarray, targets: np.ndarray, steps: int = 
     current = np.clip(q0, low, high)
     for k in range(len(targets)):
         for _ in range(steps):
-            r, j = _pen_residuals(problem, current[None], targets[k:k + 1], data)
+            r, j = _pen_residuals(problem, current[None], targets[k:k + 1],
+                                  normals[k:k + 1], data)
             step = _limited(_minimum_norm_step(r, j)[0], max_step)
             current = np.clip(current + step, low, high)
         q[k] = current
     return q
 
 
-def _solve_ik(problem: _Problem, target: np.ndarray, tolerances: tuple[float, float],
-              restarts: int = 32) -> np.ndarray:
+def _solve_ik(problem: _Problem, target: np.ndarray, normal: np.ndarray,
+              tolerances: tuple[float, float], restarts: int = 32) -> np.ndarray:
     """One pose: the configuration near home (posture term) with the pen tip at ``target``
-    along −normal, by the same Gauss–Newton on a single knot. From home first; if that
+    along −``normal``, by the same Gauss–Newton on a single knot. From home first; if that
     local solve misses the tolerances (e.g. a pen axis far from home's), from ``restarts``
     seeds drawn uniformly inside the limits (a fixed generator: deterministic), keeping the
     reaching solution nearest home — or the best miss, for the caller to report."""
-    knots = _Knots(np.zeros(1, int), np.zeros(1), target[None], np.ones(1),
+    knots = _Knots(np.zeros(1, int), np.zeros(1), target[None], normal[None], np.ones(1),
                    sp.csr_matrix((1, 1)), fixed_first=False)
     seeds = np.random.default_rng(0).uniform(problem.lower, problem.upper, (restarts, _DOF))
     best, best_key = None, (np.inf, np.inf)
     for i, seed in enumerate(np.vstack([problem.home, seeds])):
-        start = _sweep(problem, seed, target[None], steps=20, max_step=_IK_STEP)
+        start = _sweep(problem, seed, target[None], normal[None], steps=20, max_step=_IK_STEP)
         q, _ = _gauss_newton(problem, start, knots, max_iterations=50, max_step=_IK_STEP)
-        pos_err, ang_err = _pose_errors(problem, q, target[None])
+        pos_err, ang_err = _pose_errors(problem, q, target[None], normal[None])
         miss = max(pos_err[0] / tolerances[0], ang_err[0] / tolerances[1])
         if i == 0 and miss <= 1.0:
             return q[0]
@@ -322,12 +323,12 @@ def _solve_ik(problem: _Problem, target: np.ndarray, tolerances: tuple[float, fl
     return best
 
 
-def _pose_errors(problem: _Problem, q: np.ndarray,
-                 target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pen-tip distance (N,) m and pen-axis angle to −normal (N,) rad."""
+def _pose_errors(problem: _Problem, q: np.ndarray, target: np.ndarray,
+                 normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pen-tip distance (N,) m and pen-axis angle to −normal (N,) rad (``normal`` (N, 3))."""
     positions, axes = pen_poses(problem.pen, q)
-    n = problem.normal
-    angle = np.arctan2(np.linalg.norm(_cross(axes, n), axis=1), -(axes @ n))
+    angle = np.arctan2(np.linalg.norm(_cross(axes, normal), axis=1),
+                       -np.sum(axes * normal, axis=1))
     return np.linalg.norm(positions - target, axis=1), angle
 
 
@@ -349,29 +350,34 @@ def _refine(index: np.ndarray, bad: np.ndarray) -> np.ndarray:
 
 
 def _unreachable(where: int, target: np.ndarray, t: float, pos_err: float,
-                 ang_err: float, stroke: np.ndarray | None) -> InputError:
+                 ang_err: float, stroke: np.ndarray | None, turning: bool = False
+                 ) -> InputError:
     label = f"sample {where} (t = {t:.3f} s"
     if stroke is not None and int(stroke[where]) >= 0:
         label += f", stroke {int(stroke[where])}"
     x, y, z = target
+    how = ("on its way from the home pose, turning the pen from home's axis to the "
+           "drawing plane's normal," if turning else "normal to the drawing plane")
+    fix = (" or teach a home pose whose pen points nearer the plane's normal" if turning
+           else "")
     return InputError(
         f"The Panda cannot hold the pen at {label}), ({x:.3f}, {y:.3f}, {z:.3f}) m in the "
-        f"base frame, normal to the drawing plane inside its joint limits (off by "
+        f"base frame, {how} inside its joint limits (off by "
         f"{pos_err * 1e3:.2f} mm and {np.degrees(ang_err):.2f}°); move the drawing plane "
-        "closer to the robot or nearer its home pen pose, scale the paper down or reduce "
-        "joint_margin.")
+        "closer to the robot or nearer its home pen pose, scale the paper down, reduce "
+        f"joint_margin{fix}.")
 
 
-def _start(problem: _Problem, first: np.ndarray, q_start: np.ndarray | None,
-           tolerances: tuple[float, float]) -> np.ndarray:
+def _start(problem: _Problem, first: np.ndarray, normal: np.ndarray,
+           q_start: np.ndarray | None, tolerances: tuple[float, float]) -> np.ndarray:
     """The first knot: q_start as given (checked), or the IK solution nearest home."""
     if q_start is None:
-        return _solve_ik(problem, first, tolerances)
+        return _solve_ik(problem, first, normal, tolerances)
     q0 = np.asarray(q_start, dtype=float)
     if np.any(q0 <= problem.lower) or np.any(q0 >= problem.upper):
         raise InputError("q_start lies within joint_margin of a joint limit; move the robot "
                          "away from its limits or reduce joint_margin.")
-    pos_err, ang_err = _pose_errors(problem, q0[None], first[None])
+    pos_err, ang_err = _pose_errors(problem, q0[None], first[None], normal[None])
     if pos_err[0] > tolerances[0] or ang_err[0] > tolerances[1]:
         raise InputError(
             f"q_start puts the pen tip {pos_err[0] * 1e3:.2f} mm and "
@@ -389,8 +395,9 @@ def solve_joint_trajectory(target: object, *, pen_length: float, home: np.ndarra
                            position_limits: tuple[np.ndarray, np.ndarray] | None = None
                            ) -> JointTrajectory:
     """Joint positions at every control sample of ``target`` (a ``CartesianTrajectory``:
-    ``t``, ``position`` (N, 3), ``normal``, ``rate``, optionally ``stroke``) that keep the
-    pen tip on the path and the pen along −normal, ``joint_margin`` rad inside the limits.
+    ``t``, ``position`` (N, 3), ``normal``, ``rate``, optionally ``stroke`` and ``axis``)
+    that keep the pen tip on the path and the pen along −normal (−axis[k] per sample where
+    the trajectory has one), ``joint_margin`` rad inside the limits.
 
     ``position_limits``: the (lower, upper) joint ranges (7,) of the arm that will draw
     (default: the Panda URDF's); the narrower of those and the model's are used.
@@ -404,11 +411,17 @@ def solve_joint_trajectory(target: object, *, pen_length: float, home: np.ndarra
     started = time.perf_counter()
     t = np.asarray(target.t, dtype=float)
     position = np.asarray(target.position, dtype=float).reshape(-1, 3)
-    normal = np.asarray(target.normal, dtype=float)
+    normals = getattr(target, "axis", None)
+    if normals is None:  # −normal at every sample
+        normals = np.broadcast_to(np.asarray(target.normal, dtype=float), (len(t), 3))
+    normals = np.asarray(normals, dtype=float)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    plane = np.asarray(target.normal, dtype=float)
+    turning = np.sum(normals * (plane / np.linalg.norm(plane)), axis=1) < 1.0 - 1e-12
     rate = float(target.rate)
     stroke = getattr(target, "stroke", None)
     assert len(t) == len(position) >= 1 and np.shape(home) == (_DOF,)
-    check_reachable(position, normal, pen_length, joint_margin=joint_margin, stroke=stroke)
+    check_reachable(position, normals, pen_length, joint_margin=joint_margin, stroke=stroke)
     pen = pen_model(float(pen_length))
     lower, upper = pen.lower, pen.upper
     if position_limits is not None:
@@ -417,40 +430,41 @@ def solve_joint_trajectory(target: object, *, pen_length: float, home: np.ndarra
     if np.any(lower + joint_margin >= upper - joint_margin):
         raise InputError(f"joint_margin = {joint_margin} rad leaves no room between the "
                          "Panda's joint limits; use a smaller margin (0.05 rad is usual).")
-    problem = _Problem(pen, normal / np.linalg.norm(normal), np.asarray(home, dtype=float),
-                       lower + joint_margin, upper - joint_margin,
-                       weights or TrackingWeights())
+    problem = _Problem(pen, np.asarray(home, dtype=float), lower + joint_margin,
+                       upper - joint_margin, weights or TrackingWeights())
     tolerances = (position_tolerance, orientation_tolerance)
-    q0 = _start(problem, position[0], q_start, tolerances)
+    q0 = _start(problem, position[0], normals[0], q_start, tolerances)
 
     n, fixed = len(t), q_start is not None
     stride = max(1, int(round(rate / knot_rate)))
-    knots = _make_knots(np.union1d(np.arange(0, n, stride), [n - 1]), t, position,
+    knots = _make_knots(np.union1d(np.arange(0, n, stride), [n - 1]), t, position, normals,
                         problem.weights, fixed)
-    q = _sweep(problem, q0, knots.target)
+    q = _sweep(problem, q0, knots.target, knots.normal)
     q[0] = q0
     iterations, refinements = 0, 0
     while True:
         q, used = _gauss_newton(problem, q, knots, max_iterations)
         iterations += used
-        knot_pos, knot_ang = _pose_errors(problem, q, knots.target)
+        knot_pos, knot_ang = _pose_errors(problem, q, knots.target, knots.normal)
         miss = np.flatnonzero((knot_pos > tolerances[0]) | (knot_ang > tolerances[1]))
         if len(miss):
             k = int(miss[0])
             raise _unreachable(int(knots.index[k]), knots.target[k], knots.tau[k],
-                               knot_pos[k], knot_ang[k], stroke)
+                               knot_pos[k], knot_ang[k], stroke,
+                               bool(turning[knots.index[k]]))
         q_all = _interpolate(knots.tau, q, t)
-        pos_err, ang_err = _pose_errors(problem, q_all, position)
+        pos_err, ang_err = _pose_errors(problem, q_all, position, normals)
         bad = np.flatnonzero((pos_err > tolerances[0]) | (ang_err > tolerances[1]))
         if len(bad) == 0:
             break
         index = _refine(knots.index, bad)
         if refinements >= max_refinements or len(index) == len(knots.index):
             k = int(bad[0])
-            raise _unreachable(k, position[k], t[k], pos_err[k], ang_err[k], stroke)
+            raise _unreachable(k, position[k], t[k], pos_err[k], ang_err[k], stroke,
+                               bool(turning[k]))
         refinements += 1
         q = _interpolate(knots.tau, q, t[index])
-        knots = _make_knots(index, t, position, problem.weights, fixed)
+        knots = _make_knots(index, t, position, normals, problem.weights, fixed)
 
     ratios = joint_limit_ratios(q_all, rate)
     info = {

@@ -140,12 +140,13 @@ def _tip_to_last_joint(pen: PenModel) -> tuple[float, float]:
 def check_reachable(positions: np.ndarray, normal: np.ndarray, pen_length: float, *,
                     joint_margin: float = 0.0, stroke: np.ndarray | None = None) -> None:
     """Raise ``InputError`` naming the first pen-tip position (N, 3) m that the Panda cannot
-    reach with the pen along −``normal``: with the pen axis fixed, joint 7's origin is
-    w = x + (pen_length + flange)·n, and |w − shoulder| must lie in ``reach_interval``.
+    reach with the pen along −``normal`` ((3,), or (N, 3) one per position): with the pen
+    axis fixed, joint 7's origin is w = x + (pen_length + flange)·n, and |w − shoulder|
+    must lie in ``reach_interval``.
     Cheap (vectorised, no IK); necessary, not sufficient — the solver checks the rest."""
     positions = np.atleast_2d(np.asarray(positions, dtype=float))
-    n = np.asarray(normal, dtype=float)
-    n = n / np.linalg.norm(n)
+    n = np.asarray(normal, dtype=float)  # (3,), or (N, 3): one per position
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
     height, r_min, r_max = reach_interval(float(pen_length), float(joint_margin))
     along, sideways = _tip_to_last_joint(pen_model(float(pen_length)))
     wrist = positions + along * n

@@ -38,9 +38,10 @@ def plan_program(drawing: Drawing, setup: RobotSetup,
 
     t0 = time.perf_counter()
     mapping = PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin)
-    home_tip, _ = pen_poses(pen_model(setup.pen_length), setup.home[None])
-    cartesian = time_drawing(drawing, setup, start=home_tip[0], mapping=mapping)
-    check_reachable(cartesian.position, cartesian.normal, setup.pen_length,
+    home_tip, home_axis = pen_poses(pen_model(setup.pen_length), setup.home[None])
+    cartesian = time_drawing(drawing, setup, start=home_tip[0], mapping=mapping,
+                             start_normal=-home_axis[0])
+    check_reachable(cartesian.position, cartesian.pen_normals(), setup.pen_length,
                     joint_margin=setup.joint_margin, stroke=cartesian.stroke)
     timing_s = time.perf_counter() - t0
     if on_stage is not None:

@@ -93,16 +93,36 @@ def _resample(cartesian: CartesianTrajectory, joints: JointTrajectory, k: float
     position = np.stack([np.interp(s, cartesian.t, cartesian.position[:, i])
                          for i in range(3)], axis=1)
     nearest = np.clip(np.round(s * rate).astype(int), 0, len(cartesian.t) - 1)
-    info = {**cartesian.info, "retime_factor": k}
-    for key in ("drawing_s", "transfer_s"):
-        if isinstance(info.get(key), (int, float)):
-            info[key] = float(info[key]) * k
+    axis = None
+    if cartesian.axis is not None:
+        axis = np.stack([np.interp(s, cartesian.t, cartesian.axis[:, i]) for i in range(3)],
+                        axis=1)
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
     cart = dataclasses.replace(cartesian, t=t_new, position=position,
                                pen_down=cartesian.pen_down[nearest],
                                stroke=cartesian.stroke[nearest],
-                               time_scale=cartesian.time_scale * k, info=info)
+                               time_scale=cartesian.time_scale * k,
+                               info=_slowed(cartesian.info, k, n), axis=axis)
     q = CubicSpline(joints.t, joints.q, axis=0, bc_type="clamped")(s)
     return cart, dataclasses.replace(joints, t=t_new.copy(), q=q)
+
+
+#: the timing's figures (inkmotion.robot.timing) that a slow-down by k scales by k^power
+_SCALED = {"drawing_s": 1, "transfer_s": 1, "total_s": 1, "time_scale": 1, "peak_speed": -1,
+           "drawing_peak_speed": -1, "peak_acc": -2, "drawing_peak_acc": -2}
+
+
+def _slowed(info: dict, k: float, samples: int) -> dict:
+    """The timing's figures of the program played ``k`` times slower: durations and the
+    time scale × k, speeds / k, accelerations / k², and its new sample count (a report then
+    says what the arm does, not what the drawing was first timed at)."""
+    out = {**info, "retime_factor": k}
+    for key, power in _SCALED.items():
+        if isinstance(out.get(key), (int, float)):
+            out[key] = float(out[key]) * k**power
+    if "samples" in out:
+        out["samples"] = samples
+    return out
 
 
 def fit_to_limits(cartesian: CartesianTrajectory, joints: JointTrajectory, arm: ArmLimits, *,

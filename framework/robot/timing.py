@@ -37,6 +37,16 @@ line above the next stroke's start, lowers to ``TOUCH_GAP`` above the paper and 
 s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, whose peaks are |ṡ| = 15/8 at τ = ½ and |s̈| = 10/√3 at
 τ = (3 − √3)/6, so a move of length L lasts T = max(15/8·L/v_max, sqrt(10/√3·L/a_max)),
 rounded up to a whole number of control periods.
+
+Turning. The pen points along the plane's −normal while it draws, but at ``start`` (the
+home pose) it points where home holds it: straight down, not along a taught plane's
+normal, which is never exactly vertical. The first move (start → above the first stroke)
+therefore turns the pen from home's axis to the plane's, and the last move turns it back,
+each with the move's own profile s(τ): n(s) = slerp(n_home, n_plane, s), the move lasting
+long enough for both the distance and the angle (an angle θ counts as ``TURN_RADIUS``·θ of
+distance). Without it the joint solver was asked for the plane's tilt one control period
+after home: a step that a 0.3° tilt made 74× the arm's acceleration limit, which the
+retiming then paid for by slowing the whole drawing five-fold.
 """
 
 from __future__ import annotations
@@ -68,6 +78,11 @@ TOUCH_SPEED = 0.02
 MAX_DOT_S = 1.0
 #: the default start: this far (m) above the pen-up height over the first stroke's start
 START_CLEARANCE = 0.05
+#: a turn of the pen by θ rad takes as long as a move of TURN_RADIUS·θ m (a point this far
+#: from the tip along the pen moves that much): 1 rad at v_max = 0.25 m/s in about 0.8 s
+TURN_RADIUS = 0.1
+#: pen axes closer than this (rad) are one axis: no turn (round-off of a level plane)
+SAME_AXIS = 1e-9
 
 
 def _tip(stroke: Support, t: np.ndarray, mapping: PaperMapping, setup: RobotSetup
@@ -138,13 +153,40 @@ def rest_to_rest(a: np.ndarray, b: np.ndarray, v_max: float, a_max: float,
     return out
 
 
+def turning_move(a: np.ndarray, b: np.ndarray, n_a: np.ndarray, n_b: np.ndarray,
+                 v_max: float, a_max: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """The move a → b (3,) that also turns the pen from −n_a to −n_b (unit (3,)): positions
+    and normals (n + 1, 3), both along one minimum-jerk profile s(τ) (module docstring:
+    turning), lasting as :func:`rest_to_rest` over max(|b − a|, TURN_RADIUS·θ)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    theta = float(np.arctan2(np.linalg.norm(np.cross(n_a, n_b)), float(n_a @ n_b)))
+    length = max(float(np.linalg.norm(b - a)), TURN_RADIUS * theta)
+    duration = max(QUINTIC_SPEED * length / v_max,
+                   math.sqrt(QUINTIC_ACCELERATION * length / a_max))
+    n = max(1, math.ceil(duration * rate - 1e-9))
+    tau = np.arange(n + 1) / n
+    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    position = a + s[:, None] * (b - a)
+    position[-1] = b
+    if theta < SAME_AXIS:
+        return position, np.repeat(np.asarray(n_b, dtype=float)[None], n + 1, axis=0)
+    normal = (np.sin((1.0 - s) * theta)[:, None] * n_a
+              + np.sin(s * theta)[:, None] * n_b) / math.sin(theta)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    normal[0], normal[-1] = n_a, n_b
+    return position, normal
+
+
 def time_drawing(drawing: Drawing, setup: RobotSetup, start: np.ndarray | None = None,
-                 mapping: PaperMapping | None = None) -> CartesianTrajectory:
+                 mapping: PaperMapping | None = None,
+                 start_normal: np.ndarray | None = None) -> CartesianTrajectory:
     """The pen-tip program of ``drawing`` on ``setup``'s paper at the control rate: from
     ``start`` (3,) m (default: ``pen_up`` + 5 cm above the first stroke's start), for each
     stroke a transfer above its start, lowering, the stroke, lifting; then back to
-    ``start``. See the module docstring for the time scale and the moves; ``info`` holds
-    its figures."""
+    ``start``. ``start_normal`` (3,): the pen points along −start_normal at ``start`` (the
+    home pose's axis), and the first and last moves turn it (module docstring: turning);
+    default: the plane's normal throughout. See the module docstring for the time scale
+    and the moves; ``info`` holds its figures."""
     mapping = mapping or PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin)
     rate, plane = float(setup.control_rate), setup.plane
     strokes = [support(plan) for plan in drawing.plans]
@@ -180,18 +222,38 @@ def time_drawing(drawing: Drawing, setup: RobotSetup, start: np.ndarray | None =
     def touch_down(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return rest_to_rest(a, b, min(TOUCH_SPEED, setup.v_max), setup.a_max, rate)
 
+    n_plane = plane.normal / np.linalg.norm(plane.normal)
+    n_start = n_plane if start_normal is None else (
+        np.asarray(start_normal, dtype=float) / np.linalg.norm(start_normal))
+    turns = float(np.arctan2(np.linalg.norm(np.cross(n_start, n_plane)),
+                             float(n_start @ n_plane))) >= SAME_AXIS
+    turned: dict[int, np.ndarray] = {}  # segment index -> its normals, where the pen turns
+
+    def turn(a: np.ndarray, b: np.ndarray, n_a: np.ndarray, n_b: np.ndarray) -> np.ndarray:
+        points, normals = turning_move(a, b, n_a, n_b, setup.v_max, setup.a_max, rate)
+        turned[len(segments)] = normals
+        return points
+
     segments: list[tuple[np.ndarray, int]] = []  # (positions, stroke index or −1)
     here = start
     for i, (draw, (over_start, over_end)) in enumerate(zip(draws, above, strict=True)):
         hover = to_base(sampled[i][0][[0], :2], TOUCH_GAP)[0]
-        segments += [(move(here, over_start), -1), (move(over_start, hover), -1),
+        first = (turn(here, over_start, n_start, n_plane) if i == 0 and turns
+                 else move(here, over_start))
+        segments.append((first, -1))
+        segments += [(move(over_start, hover), -1),
                      (touch_down(hover, draw[0]), -1), (draw, i),
                      (move(draw[-1], over_end), -1)]
         here = over_end
-    segments.append((move(here, start), -1))
+    segments.append((turn(here, start, n_plane, n_start) if turns else move(here, start), -1))
 
     # each segment starts where the previous one ends: keep that sample once
     position = np.concatenate([start[None]] + [points[1:] for points, _ in segments])
+    axis = None
+    if turns:
+        axis = np.concatenate([n_start[None]] + [
+            turned[k][1:] if k in turned else np.repeat(n_plane[None], len(points) - 1, axis=0)
+            for k, (points, _) in enumerate(segments)])
     stroke = np.concatenate([[-1]] + [np.full(len(points) - 1, index)
                                       for points, index in segments]).astype(int)
     for i in range(len(draws)):  # a stroke's first sample, on the paper, belongs to it
@@ -220,7 +282,7 @@ def time_drawing(drawing: Drawing, setup: RobotSetup, start: np.ndarray | None =
     }
     return CartesianTrajectory(t=np.arange(n) / rate, position=position,
                                pen_down=stroke >= 0, stroke=stroke, normal=plane.normal.copy(),
-                               rate=rate, time_scale=k, info=info)
+                               rate=rate, time_scale=k, info=info, axis=axis)
 
 
 def _move_peaks(points: np.ndarray, rate: float) -> tuple[float, float]:

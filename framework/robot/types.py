@@ -28,6 +28,17 @@ class CartesianTrajectory:
     rate: float  # Hz
     time_scale: float = 1.0  # k: plan time × k = robot time (uniform scaling)
     info: dict = field(default_factory=dict)  # figures of the timing (peaks, limits, ...)
+    #: (N, 3) unit: the pen points along −axis[k] at sample k, where that is not −normal
+    #: throughout (the first and last moves turn the pen between home's axis and the
+    #: plane's: inkmotion.robot.timing); None: −normal at every sample
+    axis: np.ndarray | None = None
+
+    def pen_normals(self) -> np.ndarray:
+        """(N, 3) unit: the pen points along −pen_normals()[k] at sample k."""
+        if self.axis is not None:
+            return self.axis
+        n = np.asarray(self.normal, dtype=float)
+        return np.repeat((n / np.linalg.norm(n))[None], len(self.t), axis=0)
 
 
 @dataclass
