@@ -73,7 +73,8 @@ class DrawKind:
         "--out results/hello-dry",
         "inkmotion run draw results/hello/plan.json --robot 172.16.0.2 --setup bench.toml "
         "--out results/hello-arm",
-        "inkmotion run draw plan.json --robot 127.0.0.1 --realtime ignore --out r/sim-arm",
+        "inkmotion run draw plan.json --robot 127.0.0.1 --realtime ignore --max-approach 1.0 "
+        "--out r/sim-arm   # franky-sim: its arm starts 0.8 rad from home",
         "inkmotion robot teach --robot 172.16.0.2 --out bench.toml   # the drawing plane",
     )
 

@@ -176,10 +176,11 @@ def test_default_plane_is_reachable_with_the_pen_down():
 
 
 def test_overrides_replace_values_and_are_recorded():
+    home = np.array([0.1, -0.7, 0.0, -2.3, 0.0, 1.6, 0.8])
     setup = load_setup(overrides={"v_max": 0.1, "paper": (0.2, 0.15), "limits.a_max": 1.0,
-                                  "home": np.zeros(7)})
+                                  "home": home})
     assert setup.v_max == 0.1 and setup.a_max == 1.0 and setup.paper == (0.2, 0.15)
-    assert np.array_equal(setup.home, np.zeros(7))
+    assert np.array_equal(setup.home, home)
     assert "with overrides: v_max = 0.1" in setup.source.splitlines()[0]
     assert parse_setup(setup.source).v_max == 0.1
 
@@ -299,12 +300,12 @@ def test_timed_tag_is_within_and_at_the_limits():
 
 def test_time_scale_follows_the_limit():
     drawing = Drawing.load(DATA / "v1_job" / "plan.json")
-    slow = time_drawing(drawing, load_setup(overrides={"v_max": 0.05, "a_max": 100.0}))
-    fast = time_drawing(drawing, load_setup(overrides={"v_max": 0.1, "a_max": 100.0}))
+    slow = time_drawing(drawing, load_setup(overrides={"v_max": 0.05, "a_max": 13.0}))
+    fast = time_drawing(drawing, load_setup(overrides={"v_max": 0.1, "a_max": 13.0}))
     assert slow.info["limiting"] == fast.info["limiting"] == "speed"
     assert slow.time_scale == pytest.approx(2 * fast.time_scale, rel=1e-6)
     assert slow.info["drawing_peak_speed"] == pytest.approx(0.05 * 0.999)
-    by_acc = time_drawing(drawing, load_setup(overrides={"v_max": 10.0, "a_max": 0.5}))
+    by_acc = time_drawing(drawing, load_setup(overrides={"v_max": 1.7, "a_max": 0.5}))
     assert by_acc.info["limiting"] == "acceleration"
     assert by_acc.info["drawing_peak_acc"] == pytest.approx(0.5 * 0.999)
 
@@ -380,3 +381,13 @@ def test_a_tilted_board_is_drawn_as_fast_as_a_level_one(tilt_deg):
     assert np.allclose(axes[down], tilted.plane.normal, atol=1e-9)
     assert steep.joints.max_orientation_error < np.radians(2.0)
     assert steep.cartesian.info["total_s"] == pytest.approx(steep.joints.t[-1], abs=2e-3)
+
+
+def test_a_home_outside_the_joint_ranges_names_its_key():
+    """Seven zeros (joint 4's range is −3.07 to −0.07 rad) said "q_start lies within
+    joint_margin of a joint limit; move the robot away from its limits"."""
+    text = DEFAULT_SETUP.read_text().replace(
+        "home = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]", "home = [0, 0, 0, 0, 0, 0, 0]")
+    with pytest.raises(InputError, match=r"bench.toml: \[robot\] home joint 4 = 0 rad is "
+                                         r"outside the Franka arms' range"):
+        parse_setup(text, "bench.toml")

@@ -126,3 +126,58 @@ def test_bad_setup_file_names_the_key(fitted_plan: Path, tmp_path: Path) -> None
     res = inkmotion("run", "simulate", str(fitted_plan), "--setup", str(bad), "--out",
                     str(tmp_path / "o"))
     assert res.returncode != 0 and str(bad) in res.stderr and "v_max" in res.stderr
+
+
+@pytest.mark.parametrize("old, new, key", [
+    ("contact_offset = -0.0003", "contact_offset = -0.02", "contact_offset"),
+    ("v_max = 0.25", "v_max = 10.0", "v_max"),
+    ("a_max = 2.5", "a_max = 100.0", "a_max"),
+])
+def test_a_setup_beyond_what_the_arm_and_pen_can_use_is_refused(fitted_plan: Path,
+                                                                 tmp_path: Path, old: str,
+                                                                 new: str, key: str) -> None:
+    """A 20 mm press drew 13 mm off the plan with 47 N on the board, and a setup's v_max of
+    10 m/s (the CLI refuses 5) drove the joints 35 % past their jerk limit: both ran to a
+    plain "done"."""
+    from inkmotion.robot.setup import DEFAULT_SETUP
+
+    bad = tmp_path / "bench.toml"
+    bad.write_text(DEFAULT_SETUP.read_text().replace(old, new))
+    out = tmp_path / "never"
+    res = inkmotion("run", "simulate", str(fitted_plan), "--setup", str(bad), "--out",
+                    str(out), "--no-record")
+    assert res.returncode != 0 and "Traceback" not in res.stderr
+    assert f"{bad}: [" in res.stderr and key in res.stderr and "is outside" in res.stderr
+    assert not out.exists()
+
+
+def test_a_plan_whose_strokes_leave_its_canvas_says_the_pen_leaves_the_paper(
+        fitted_plan: Path, tmp_path: Path) -> None:
+    plan = json.loads(fitted_plan.read_text())
+    plan["canvas"]["height"] *= 0.3
+    cut = tmp_path / "cut.json"
+    cut.write_text(json.dumps(plan))
+    out = tmp_path / "sim"
+    res = inkmotion("run", "simulate", str(cut), "--out", str(out), "--no-record",
+                    "--backend", "export")
+    assert res.returncode == 0, res.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert any("beyond the paper" in w for w in report["warnings"]), report.get("warnings")
+    assert "beyond the paper" in res.stderr
+
+
+def test_an_execution_that_strays_or_passes_a_limit_is_said():
+    from inkmotion.kinds.simulate import execution_warnings
+
+    good = {"tracking_down_plane_max_mm": 0.3, "tracking_down_plane_rms_mm": 0.27,
+            "executed_joint_velocity_min_margin": 0.5,
+            "executed_joint_acceleration_min_margin": 0.3,
+            "executed_joint_jerk_min_margin": 0.1, "contact_force_max_n": 12.0}
+    assert execution_warnings("franka-sim", good) == []
+    bad = {**good, "tracking_down_plane_max_mm": 13.6, "tracking_down_plane_rms_mm": 12.7,
+           "contact_force_max_n": 46.8, "executed_joint_jerk_min_margin": -1.97,
+           "executed_joint_acceleration_min_margin": -0.127}
+    said = execution_warnings("franka-sim", bad)
+    assert len(said) == 2
+    assert "13.6 mm off the plan" in said[0] and "47 N" in said[0]
+    assert "acceleration and jerk limit (by 197 %" in said[1]

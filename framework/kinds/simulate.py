@@ -96,7 +96,39 @@ def run_simulate(job: Job) -> dict[str, Any]:
         following = names[i - 2:i - 1]
         stage(i, {**({"now": following[0]} if following else {}), **shown})
     report["metrics"] = metrics
+    said = [w for choice in p.backends for w in execution_warnings(choice.name,
+                                                                    report[choice.name])]
+    if said:
+        report["warnings"] = [*report.get("warnings", []), *said]
     return report
+
+
+#: mm: a simulated pen that strays further than this from the plan while it draws is
+#: reported (the default bench tracks within about 0.3 mm)
+STRAY_MM = 2.0
+
+
+def execution_warnings(backend: str, figures: dict[str, Any]) -> list[str]:
+    """One sentence per way an executed drawing went wrong that its figures show: the pen
+    far off the plan while drawing, or the arm past its velocity, acceleration or jerk
+    limits (a margin below 0). A run that ends "done" must not hide either."""
+    said = []
+    off = figures.get("tracking_down_plane_max_mm")
+    if isinstance(off, (int, float)) and off > STRAY_MM:
+        said.append(f"{backend}: the pen drew up to {off:.1f} mm off the plan (RMS "
+                    f"{figures.get('tracking_down_plane_rms_mm', float('nan')):.1f} mm, "
+                    f"press up to {figures.get('contact_force_max_n', float('nan')):.0f} N); "
+                    "press less (the setup's contact_offset nearer 0) or slow it down "
+                    "(v_max, a_max).")
+    over = [name for name in ("velocity", "acceleration", "jerk")
+            if isinstance(figures.get(f"executed_joint_{name}_min_margin"), (int, float))
+            and figures[f"executed_joint_{name}_min_margin"] < 0.0]
+    if over:
+        worst = min(figures[f"executed_joint_{name}_min_margin"] for name in over)
+        said.append(f"{backend}: the executed joints went past the arm's {' and '.join(over)} "
+                    f"limit (by {-100 * worst:.0f} % at worst), where a real arm stops with a "
+                    "reflex; lower v_max and a_max, or press less.")
+    return said
 
 
 def program_report(program: RobotProgram) -> dict[str, Any]:
@@ -120,4 +152,19 @@ def program_report(program: RobotProgram) -> dict[str, Any]:
                   "m_per_px": program.mapping.scale},
         "paths": len(drawing.plans),
         "moves": sum(plan.m for plan in drawing.plans),
+        **_off_the_paper(cart.info.get("outside_paper_m")),
     }
+
+
+#: m: a plan that reaches further than this beyond the paper is reported
+OFF_PAPER_M = 1e-4
+
+
+def _off_the_paper(outside: Any) -> dict[str, Any]:
+    """The warning of a plan whose strokes leave its own canvas, so the pen leaves the
+    paper (an edited plan.json, or one whose canvas was cut), or nothing."""
+    if not isinstance(outside, (int, float)) or outside <= OFF_PAPER_M:
+        return {}
+    return {"warnings": [f"the plan's strokes leave its canvas, so the pen draws up to "
+                         f"{1e3 * outside:.0f} mm beyond the paper; give the plan a canvas "
+                         "that holds its strokes (fit it again), or a larger paper."]}

@@ -20,6 +20,12 @@ import numpy as np
 
 from inkmotion.errors import InputError
 from inkmotion.robot.calibration import DrawingPlane
+from inkmotion.robot.limits import (
+    CARTESIAN_ACCELERATION_LIMIT,
+    CARTESIAN_SPEED_LIMIT,
+    FR3,
+    PANDA,
+)
 
 try:
     import tomllib
@@ -65,6 +71,14 @@ class _Key:
     shape: tuple[int, ...]  # () for a number
     check: str  # "positive" | "non-negative" | "finite" | "fraction"
     doc: str  # one line, written above the key by setup_to_toml
+    #: (lowest, highest) a bench can use, where the check alone allows nonsense
+    bounds: tuple[float, float] | None = None
+
+
+#: m: the deepest press and the largest gap of the pen-down tip (contact_offset): under joint
+#: impedance a press pushes the tip sideways too (1.3 mm drew 0.75 mm RMS off the plan), and
+#: 20 mm drew 13 mm off it with 47 N on the board; a gap over 5 mm never touches the paper
+CONTACT_OFFSET_RANGE = (-0.005, 0.005)
 
 
 _KEYS = (
@@ -78,11 +92,13 @@ _KEYS = (
     _Key("pen", "length", (), "positive", "m: pen tip from the flange along its z axis"),
     _Key("pen", "up", (), "positive", "m: pen-up height above the paper"),
     _Key("pen", "contact_offset", (), "finite", "m: pen-down distance at radius 0 "
-         "(negative presses in)"),
+         "(negative presses in)", CONTACT_OFFSET_RANGE),
     _Key("pen", "press_per_px", (), "non-negative", "m per px of stroke radius: distance = "
          "contact_offset - press_per_px * r"),
-    _Key("limits", "v_max", (), "positive", "m/s: largest pen-tip speed"),
-    _Key("limits", "a_max", (), "positive", "m/s^2: largest pen-tip acceleration"),
+    _Key("limits", "v_max", (), "positive", "m/s: largest pen-tip speed",
+         (0.0, CARTESIAN_SPEED_LIMIT)),
+    _Key("limits", "a_max", (), "positive", "m/s^2: largest pen-tip acceleration",
+         (0.0, CARTESIAN_ACCELERATION_LIMIT)),
     _Key("limits", "joint_margin", (), "non-negative", "rad: kept from each joint limit"),
     _Key("limits", "limit_fraction", (), "fraction", "of the Panda's joint velocity, "
          "acceleration and jerk limits"),
@@ -133,6 +149,11 @@ def _checked(key: _Key, value: Any, source: str) -> float | np.ndarray:
               "fraction": 0 < x <= 1}[key.check]
         if not ok:
             raise refuse()
+        if key.bounds is not None and not key.bounds[0] <= x <= key.bounds[1]:
+            low, high = key.bounds
+            raise InputError(f"{where} = {x:g} is outside {low:g} to {high:g}, what the "
+                             f"Panda and a pen can use; correct it (see {DEFAULT_SETUP.name} "
+                             "for every key).")
         return x
     if not isinstance(value, (list, tuple)) or not _all_numbers(value):
         raise refuse()
@@ -232,6 +253,16 @@ def _build(v: dict[str, Any], source: str) -> RobotSetup:
     if v["pen.contact_offset"] >= v["pen.up"]:
         raise InputError(f"{source}: [pen] up {v['pen.up']} m must be above the contact "
                          f"distance [pen] contact_offset {v['pen.contact_offset']} m; raise it.")
+    home, margin_rad = v["robot.home"], v["limits.joint_margin"]
+    lower = np.minimum(PANDA.lower, FR3.lower)  # the arm is chosen later: either may draw
+    upper = np.maximum(PANDA.upper, FR3.upper)
+    outside = np.flatnonzero((home <= lower + margin_rad) | (home >= upper - margin_rad))
+    if len(outside):
+        j = int(outside[0])
+        raise InputError(f"{source}: [robot] home joint {j + 1} = {home[j]:g} rad is outside "
+                         f"the Franka arms' range {lower[j]:.4f} to {upper[j]:.4f} rad less "
+                         f"joint_margin {margin_rad:g}; give a home inside it (the default's "
+                         "is [0, -0.785, 0, -2.356, 0, 1.571, 0.785]).")
     plane = DrawingPlane.from_points(v["plane.points"], f"{source}: [plane] points",
                                      tolerance=v["plane.tolerance"])
     for name, length, taught in (("width", width, plane.size[0]),
