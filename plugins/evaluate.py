@@ -45,6 +45,9 @@ class EvaluateParams:
                        file=True)
     recording: str = param("", "The GML/JSON the plan was fitted to, for the agreement with "
                            "its recorded speed (when it has time stamps).", file=True)
+    recording_time_unit: str = param("auto", "The unit of the recording's time stamps: 's', "
+                                     "'ms' or 'auto' (told by their step).",
+                                     choices=("auto", "s", "ms"))
 
 
 class EvaluateKind:

@@ -65,6 +65,14 @@ def test_evaluate_writes_the_table_and_plots(tmp_path: Path) -> None:
     assert "it does not look like the drawing the plan was fitted to" in res.stderr
     human = json.loads((tmp_path / "other" / "evaluation.json").read_text())["human"]
     assert human["apart_px"] > 15 and human["has_times"]
+    assert human["time_unit"] == "ms"  # told by the step
+    # the unit given, as the README says (it had no such option: "no such option")
+    res = inkmotion("evaluate", str(fit / "plan.json"), "--recording", "sample:tempt-1",
+                    "--recording-time-unit", "s", "--out", str(tmp_path / "in-s"),
+                    "--no-record")
+    assert res.returncode == 0, res.stderr
+    human = json.loads((tmp_path / "in-s" / "evaluation.json").read_text())["human"]
+    assert human["time_unit"] == "s"
 
 
 def test_msj_at_equal_duration_removes_the_time_scaling() -> None:

@@ -26,6 +26,9 @@ def evaluate_cmd(
     recording: Annotated[Optional[Path], typer.Option(  # noqa: UP045
         help="The GML/JSON the plan was fitted to (its time stamps: human agreement).")
     ] = None,
+    recording_time_unit: Annotated[str, typer.Option(
+        help="The unit of the recording's time stamps: s, ms or auto (told by their step).")
+    ] = "auto",
     record: RecordOpt = False,
     force: ForceOpt = False,
     as_json: JsonOpt = False,
@@ -48,7 +51,8 @@ def evaluate_cmd(
     values = {"out_dir": out_dir, "record": record, "force": force, "as_json": as_json,
               "config": None, "v_max": vmax, "a_max": amax, "path": path, "rate": rate,
               "setup": str(setup) if setup else None,
-              "recording": str(recording) if recording else None}
+              "recording": str(recording) if recording else None,
+              "recording_time_unit": recording_time_unit}
     _run_kind("evaluate", [plan], values)
 
 

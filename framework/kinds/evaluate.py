@@ -41,7 +41,10 @@ def run_evaluate(job: Job) -> dict[str, Any]:
     scale = paper_scale(drawing.canvas, p.setup)
     indices = list(range(len(drawing.plans))) if p.path < 0 else [choose_path(drawing, p.path)]
     shown = choose_path(drawing, p.path)  # the longest, or the one asked for: the plots
-    recording = read_input(p.recording) if p.recording else None  # refused before the work
+    recording = None  # read now: a bad one is refused before the work
+    if p.recording:
+        recording = (read_input(p.recording) if p.recording_time_unit == "auto" else
+                     read_input(p.recording, "gml", {"time_unit": p.recording_time_unit}))
     job.start((int(drawing.canvas[0]), int(drawing.canvas[1])))
     n, count = len(METHODS), len(indices)
 
