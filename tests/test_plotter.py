@@ -353,3 +353,53 @@ def test_vpype_reads_a_plan_as_a_user_would(tmp_path: Path) -> None:
                              capture_output=True, text=True, timeout=300)
     assert missing.returncode != 0 and "nope.json" in missing.stderr
     assert "Traceback" not in missing.stderr
+
+
+_GOOD = ('name = "x"\nmax_feed = 80\nmax_accel = 800\njunction_deviation = 0.02\n'
+         'pen_up = "M5"\npen_down = "M3 S1000"\ndwell = "G4 P{seconds:.3f}"\n')
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ('header = "G20\\nG90"', "holds G20"),  # inches: the mm numbers 25.4× too far
+    ('header = "G21\\nG91"', "holds G91"),  # every move relative to the last
+    ('footer = "G70"', "holds G70"),
+    ('pen_up = ""', "lift the pen"),  # every travel move would draw
+    ('pen_down = "  "', "lower the pen"),
+    ("pen_up = 5", "pen_up = 5 must be"),  # was AttributeError
+    ('dwell_down_s = "abc"', "dwell_down_s = 'abc' must be a number ≥ 0"),  # was TypeError
+    ("dwell_down_s = -5.0", "dwell_down_s = -5.0 must be"),  # was pen_s −14.7 s
+    ("pen_move_s = -1", "pen_move_s = -1 must be"),
+    ('planner_blocks = "x"', "planner_blocks = 'x' must be a whole number"),
+    ("max_feed = true", "max_feed = True must be a positive number"),  # was 1 mm/s
+])
+def test_a_machine_file_that_would_plot_wrongly_is_refused_in_one_sentence(
+        tmp_path: Path, line: str, message: str) -> None:
+    key = line.split("=")[0].strip()
+    body = "".join(x + "\n" for x in _GOOD.splitlines() if not x.startswith(key + " "))
+    machine = tmp_path / "machine.toml"
+    machine.write_text(f"[machine]\n{body}{line}\n")
+    with pytest.raises(InputError, match=re.escape(message)):
+        load_machine("custom", machine)
+
+
+def test_a_header_without_units_still_gives_millimetres_and_absolute_moves(
+        tmp_path: Path) -> None:
+    machine = tmp_path / "machine.toml"
+    machine.write_text(f'[machine]\n{_GOOD}header = "G92 X0 Y0"\n')
+    run_job(JobSpec(kind="plot", inputs={"plan": str(WORD)},
+                    params={"machine": "custom", "machine_file": str(machine)}),
+            tmp_path / "out")
+    head = (tmp_path / "out" / "plot.gcode").read_text().split("G0 X", 1)[0]
+    assert [w for w in ("G92 X0 Y0", "G21", "G90") if w in head] == ["G92 X0 Y0", "G21", "G90"]
+
+
+@pytest.mark.parametrize(("source", "said"), [
+    ("text:hi", "fit it first (inkmotion run fit text:hi --out DIR)"),
+    ("sample:tempt-1", "is a drawing (XML), not a plan.json; fit it first"),
+])
+def test_a_drawing_given_to_plot_says_fit_it_first(tmp_path: Path, source: str,
+                                                    said: str) -> None:
+    from inkmotion.errors import InkmotionError
+
+    with pytest.raises(InkmotionError, match=re.escape(said)):
+        run_job(JobSpec(kind="plot", inputs={"plan": source}, params={}), tmp_path / "o")

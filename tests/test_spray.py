@@ -223,3 +223,14 @@ def test_the_spray_session_makes_no_host_synchronisation(device: torch.device) -
     with count_host_syncs() as log:
         session(seg, widths, 60, 100).sum().backward()
     assert log.count == 0
+
+
+def test_a_drawing_that_never_moves_is_sprayed_as_a_dot() -> None:
+    """A plan of one dot has no moving sample: the median speed of none was NaN and the
+    particle draw raised "lam < 0 or lam is NaN" (inkmotion render --renderer spray)."""
+    dot = MotorPlan.from_points(torch.tensor([[100.0, 50.0], [100.0, 50.0]]),
+                                dtype=torch.float64)
+    preview = spray_preview(Drawing((200.0, 100.0), [dot]), 200, seed=0)
+    assert np.isfinite(preview.opacity).all()
+    rows, cols = np.nonzero(preview.opacity > 0.2)
+    assert len(rows) > 5 and abs(cols.mean() - 100) < 5 and abs(rows.mean() - 50) < 5

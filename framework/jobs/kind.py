@@ -18,6 +18,7 @@ Nothing here imports torch: ``inkmotion run --help`` lists the kinds at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from inkmotion.errors import SpecError
@@ -140,6 +141,11 @@ def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> N
         value = locate(value)  # sample:NAME -> its shipped file; an unknown name is refused
         if info.form == "source" and is_scheme(value):
             continue
+        if info.form == "file" and is_scheme(value) and not Path(value).exists():
+            raise SpecError(f"{value}: the {spec.kind} job's {name} input is a file ("
+                            f"{info.help.rstrip('.')}), not a {value.split(':')[0]}: source; "
+                            f"for a drawing, fit it first (inkmotion run fit {value} --out "
+                            "DIR) and give DIR/plan.json.")
         problem = missing_file(value, name)
         if problem is not None:
             raise SpecError(problem)

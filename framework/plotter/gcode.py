@@ -12,7 +12,11 @@ from inkmotion.plotter.program import Block
 def write_gcode(blocks: list[Block], machine: Machine, comments: list[str] = ()) -> str:
     """The G-code text of ``blocks`` on ``machine``, with ``comments`` at the top."""
     lines = [f"; {c}" for c in comments]
-    lines += machine.header.splitlines() + machine.pen_up.splitlines()
+    header = machine.header.splitlines()
+    words = {w.upper() for line in header for w in line.split(";")[0].split()}
+    # millimetres and absolute coordinates, whatever a custom header left out
+    lines += header + [w for w in ("G21", "G90") if w not in words]
+    lines += machine.pen_up.splitlines()
     for b in blocks:
         if b.kind == "travel":
             lines.append(f"G0 X{b.xy[0]:.3f} Y{b.xy[1]:.3f}")

@@ -11,6 +11,7 @@ mm/s²), ``junction_deviation`` ($11, mm; Klipper's square_corner_velocity v_sc 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
@@ -60,6 +61,19 @@ _REQUIRED = ("name", "max_feed", "max_accel", "junction_deviation", "pen_up", "p
              "dwell")
 
 
+#: G-code words that change what the plot's coordinates and feeds mean: inches (G20, G70),
+#: relative moves (G91), inverse-time feed (G93). (A work offset, G54–G59 or G92, moves the
+#: origin, which a header may do on purpose.)
+_MODAL = re.compile(r"(?<![A-Z0-9.])(G0*20|G0*70|G0*91(?!\.1)|G0*93)(?![0-9])",
+                    re.IGNORECASE)
+
+
+def _mode_changes(gcode: str) -> list[str]:
+    """The words of ``gcode`` (comments left out) that change the coordinates' meaning."""
+    code = re.sub(r"\([^)]*\)|;.*", "", gcode)
+    return sorted({m.group(1).upper() for m in _MODAL.finditer(code)})
+
+
 def load_machine(name: str, file: str | Path | None = None) -> Machine:
     """The profile ``name`` (``grbl``, ``marlin``, ``klipper``) or, for ``custom``, the
     ``[machine]`` table of the TOML ``file``; one sentence naming what is wrong otherwise."""
@@ -94,11 +108,32 @@ def load_machine(name: str, file: str | Path | None = None) -> Machine:
             ([f"missing {', '.join(missing)}"] if missing else [])
             + ([f"unknown {', '.join(unknown)}"] if unknown else [])) + ".")
     machine = replace(MACHINES["grbl"], **table)
-    for key in ("max_feed", "max_accel", "junction_deviation"):
+    for key in ("max_feed", "max_accel", "junction_deviation", "dwell_down_s", "dwell_up_s",
+                "pen_move_s", "planner_blocks"):
         value = getattr(machine, key)
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-            raise InputError(f"machine file {file}: {key} = {value!r} must be a positive "
-                             "number.")
+        positive = key in ("max_feed", "max_accel", "junction_deviation", "planner_blocks")
+        if (isinstance(value, bool) or not isinstance(value, (int, float))
+                or not math.isfinite(value) or value < 0 or (positive and value == 0)
+                or (key == "planner_blocks" and not isinstance(value, int))):
+            kind = ("a whole number ≥ 1" if key == "planner_blocks" else
+                    "a positive number" if positive else "a number ≥ 0")
+            raise InputError(f"machine file {file}: {key} = {value!r} must be {kind}; "
+                             "correct it.")
+    for key in ("name", "pen_up", "pen_down", "dwell", "header", "footer"):
+        value = getattr(machine, key)
+        if not isinstance(value, str) or (key in ("pen_up", "pen_down") and not value.strip()):
+            raise InputError(f"machine file {file}: {key} = {value!r} must be "
+                             + ("the G-code line(s) that " + ("lift" if key == "pen_up" else
+                                                               "lower") + " the pen (a "
+                                "plot without them draws every travel move)"
+                                if key in ("pen_up", "pen_down") else "text")
+                             + "; correct it.")
+        modal = _mode_changes(value) if key != "name" else []
+        if modal:
+            raise InputError(f"machine file {file}: {key} holds {', '.join(modal)}, which "
+                             "would make the plot's millimetre, absolute coordinates mean "
+                             "something else (inches, or moves relative to the last); take it "
+                             "out: inkmotion writes G21 and G90 itself.")
     try:
         machine.dwell_line(0.1)
     except (KeyError, ValueError, IndexError) as exc:

@@ -35,6 +35,9 @@ import numpy as np
 
 from inkmotion.rendering.spray import SPREAD_CAP, SPREAD_EXPONENT
 
+#: px/s: the reference speed of a drawing that never moves (dots only)
+STILL_PX_S = 50.0
+
 
 @dataclass(frozen=True)
 class SprayStyle:
@@ -154,8 +157,11 @@ def spray_preview(drawing: object, size: int, seed: int = 0,
     rng = np.random.Generator(np.random.PCG64(seed))
     plans = drawing.plans  # type: ignore[attr-defined]
     samples = [_samples(p, scale, style.step_px) for p in plans]
-    moving = np.concatenate([s[1] for s in samples])
-    v_ref = float(np.median(moving[moving > 1e-9 * max(float(moving.max()), 1.0)]))
+    speeds = np.concatenate([s[1] for s in samples])
+    moving = speeds[speeds > 1e-9 * max(float(speeds.max(initial=0.0)), 1.0)]
+    # the median moving speed; a drawing of dots alone never moves: paint flows as at
+    # STILL_PX_S (a dot then gets the paint of a stroke that long per second)
+    v_ref = float(np.median(moving)) if len(moving) else STILL_PX_S
     amount = np.zeros((height, width), dtype=np.float32)
     drips: list[Drip] = []
     for plan, (xy, speed, dt) in zip(plans, samples, strict=True):

@@ -224,6 +224,10 @@ class Drawing:
         if other is not None and not isinstance(d.get("paths"), list):
             raise InputError(f"{source}: is {other}, not a plan.json; give the plan.json "
                              "beside it.")
+        if "paths" not in d and "version" not in d:  # a drawing (a GML tag's JSON), say
+            raise InputError(f"{source}: is not a plan.json (no paths of sub-movements: a "
+                             "drawing?); fit it first (inkmotion run fit FILE --out DIR) and "
+                             "give DIR/plan.json.")
         for i, path in enumerate(d.get("paths") or []):
             _check_counts(path, f"{source}: paths[{i}]")
         try:
@@ -265,4 +269,12 @@ class Drawing:
 
     @classmethod
     def load(cls, path: str | Path) -> Drawing:
+        try:
+            with open(path, "rb") as f:
+                head = f.read(256).lstrip()
+        except OSError:
+            head = b""  # read_json says why
+        if head.startswith(b"<"):  # XML: a GML tag or an SVG
+            raise InputError(f"{path}: is a drawing (XML), not a plan.json; fit it first "
+                             f"(inkmotion run fit {path} --out DIR) and give DIR/plan.json.")
         return cls.from_dict(read_json(path, InputError, "plan file"), str(path))
