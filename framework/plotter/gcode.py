@@ -1,12 +1,14 @@
 """G-code of a plotter program (:mod:`.program`) for a machine profile: G21/G90, G0 for
 pen-up travel, the profile's pen commands and dwells, one ``G1 X Y F`` per segment with its
-own feed (mm/min). Coordinates to the µm, feeds to 0.1 mm/min; comments on lines of their
+own feed (mm/min). Coordinates to the µm, feeds to four digits (:mod:`.resolution`);
+comments on lines of their
 own (``;``), so line-oriented readers see bare commands."""
 
 from __future__ import annotations
 
 from inkmotion.plotter.machine import Machine
 from inkmotion.plotter.program import Block
+from inkmotion.plotter.resolution import feed_text
 
 
 def write_gcode(blocks: list[Block], machine: Machine, comments: list[str] = ()) -> str:
@@ -21,7 +23,7 @@ def write_gcode(blocks: list[Block], machine: Machine, comments: list[str] = ())
         if b.kind == "travel":
             lines.append(f"G0 X{b.xy[0]:.3f} Y{b.xy[1]:.3f}")
         elif b.kind == "draw":
-            lines.append(f"G1 X{b.xy[0]:.3f} Y{b.xy[1]:.3f} F{60.0 * b.feed:.1f}")
+            lines.append(f"G1 X{b.xy[0]:.3f} Y{b.xy[1]:.3f} F{feed_text(b.feed)}")
         elif b.kind == "pen_down":
             lines += machine.pen_down.splitlines()
         elif b.kind == "pen_up":

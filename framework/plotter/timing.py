@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from inkmotion.plotter.resolution import on_grid, written_feed
 from inkmotion.robot.calibration import PaperMapping
 from inkmotion.sigma_lognormal.kinematics import kinematics
 from inkmotion.sigma_lognormal.plan import Drawing
@@ -141,7 +142,11 @@ def _segments(s: Support, k: float, step: float, mapping: PaperMapping
     times = t[keep_a] * k  # machine s
     mid = 0.5 * (t[keep_a[:-1]] + t[keep_a[1:]])
     _, v_mid, _ = _kinematics_mm(s, mid, mapping)
-    return (p[keep_a], np.diff(times), np.linalg.norm(v_mid, axis=1) / k,
+    # as the G-code says them (.resolution): each segment lasts its length at its written feed
+    points = on_grid(p[keep_a])
+    lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    feeds = np.array([written_feed(f) for f in lengths / np.diff(times)])
+    return (points, lengths / feeds, np.linalg.norm(v_mid, axis=1) / k,
             np.linalg.norm(v[keep_a], axis=1) / k)
 
 
