@@ -120,9 +120,14 @@ def run_plot(job: Job) -> dict[str, Any]:
     strokes = timing.strokes
     starts = np.array([st.points[0] for st in strokes])
     ends = np.array([st.points[-1] for st in strokes])
-    own = list(range(len(strokes)))
-    order = optimise_order(starts, ends) if p.order == "optimise" else own
-    travel_before = tour_length(own, starts, ends)
+    order, travel_before = [], 0.0
+    for pen in sorted({st.pen for st in strokes}):  # each pen is a file of its own: its tour
+        own = [i for i, st in enumerate(strokes) if st.pen == pen]
+        mine = list(range(len(own)))
+        travel_before += tour_length(mine, starts[own], ends[own])
+        if p.order == "optimise":
+            mine = optimise_order(starts[own], ends[own])
+        order += [own[j] for j in mine]
     strokes = [strokes[i] for i in order]
     job.observers.on_step(StepState(2, STEPS, {}, None, figures={
         "now": "G-code", "time_scale": timing.time_scale, "strokes": len(strokes)}))
