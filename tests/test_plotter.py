@@ -463,3 +463,24 @@ def test_each_pen_s_tour_is_its_own(tmp_path: Path) -> None:
         own = run_job(JobSpec(kind="plot", inputs={"plan": str(alone)},
                               params={"order": "optimise"}), tmp_path / f"alone{pen}")
         assert best["pens"][str(pen)]["travel_mm"] == pytest.approx(own["travel_mm"], rel=1e-4)
+
+
+def test_a_motion_a_little_past_the_paper_is_said_with_the_margin_that_fixes_it(
+        tmp_path: Path) -> None:
+    """Targets 0.6 px past a square canvas at --margin 0 drew to X −0.406 mm (within the
+    0.5 mm the refusal allows) without a word."""
+    edge = {"version": 1, "canvas": {"width": 300, "height": 300}, "paths": [{
+        "points": [[-0.6, 150], [150, -0.6], [300.6, 150]], "delta_t": [0.3, 0.3],
+        "delta": [0.0, 0.0], "ac": [0.01, 0.01], "T": [0.8, 0.8], "width": 3.0}]}
+    plan = tmp_path / "edge.json"
+    plan.write_text(json.dumps(edge))
+    report = run_job(JobSpec(kind="plot", inputs={"plan": str(plan)}, params={"margin": 0}),
+                     tmp_path / "tight")
+    (said,) = report["warnings"]
+    assert "mm past the paper's edge" in said and "--margin of 0.5 mm" in said
+    report = run_job(JobSpec(kind="plot", inputs={"plan": str(plan)},
+                             params={"margin": 0.5}), tmp_path / "kept")
+    assert "warnings" not in report
+    gcode = (tmp_path / "kept" / "plot.gcode").read_text()
+    xy = np.array(re.findall(r"^G[01] X(-?[0-9.]+) Y(-?[0-9.]+)", gcode, re.M), dtype=float)
+    assert xy.min() >= 0 and xy[:, 0].max() <= report["paper_mm"][0]

@@ -13,6 +13,7 @@ travelled, the peak feed and how closely the feeds follow the plan's speed.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -78,6 +79,13 @@ def _check_on_paper(drawing: Any, mapping: Any, paper: tuple[float, float],
                      f"{hi[1]:.0f} mm: its points lie off its {drawing.canvas[0]:g} × "
                      f"{drawing.canvas[1]:g} px canvas); refit the plan or restore its "
                      "points.")
+
+
+def _past_the_edge(strokes: list[Any], paper: tuple[float, float]) -> float:
+    """How far (mm) the farthest drawn point lies outside the paper, 0 when none does."""
+    points = np.vstack([st.points for st in strokes])
+    outside = np.maximum(np.maximum(-points, points - np.asarray(paper)), 0.0)
+    return float(outside.max())
 
 
 def run_plot(job: Job) -> dict[str, Any]:
@@ -171,6 +179,12 @@ def run_plot(job: Job) -> dict[str, Any]:
         "strokes": len(strokes), "moves": sum(plan.m for plan in drawing.plans),
         "feed_speed_correlation": correlation, "timing": timing.info,
     }
+    past = _past_the_edge(strokes, paper)
+    if past > 0:
+        report["warnings"] = [f"the pen goes up to {past:.3f} mm past the paper's edge (the "
+                              "motion's ends overshoot the canvas a little; G-code below 0 can "
+                              "trip a machine's soft limits); a --margin of "
+                              f"{math.ceil(past * 10) / 10:g} mm or more keeps it on the sheet."]
     report["metrics"] = {"estimated_s": total_s, "peak_feed": timing.info["peak_feed"],
                          "travel_mm": travel_mm, "feed_speed_correlation": correlation}
     return report
