@@ -35,7 +35,7 @@ class FitKind:
         "inkmotion run fit my_drawing.jpg --out results/picture --varying-width",
         "inkmotion run fit my_tag.gml --out results/smoother --lambda 150 --size 500",
         "inkmotion run fit sample:tempt-3 --out results/sparse --dce-relevance 5",
-        "inkmotion run fit sample:tempt-3 --out results/thirty --targets 30",
+        "inkmotion run fit sample:tempt-3 --out results/twenty --targets 20",
         "inkmotion run fit sample:spiral --out results/auto --targets auto --max-error 1.5",
     )
 

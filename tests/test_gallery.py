@@ -409,3 +409,21 @@ def test_figure_labels_and_value_meanings() -> None:
     assert summary.value_meaning("Pen speed limit, m/s (0: the setup's).", 0.3) is None
     assert summary.value_meaning("Setup TOML; empty: the shipped default.", "") == \
         "the shipped default"
+
+
+def test_a_job_s_warnings_and_random_clip_weights_are_on_its_page(gallery_jobs, tmp_path):
+    """The report's warnings reached a job page only for a poor fit, and a result made with
+    random CLIP weights (a test result) looked like any other: "CLIP similarity 0.726"."""
+    folder = tmp_path / "results" / "random"
+    shutil.copytree(gallery_jobs.fit, folder)
+    report = json.loads((folder / "report.json").read_text())
+    report.update(clip_weights="random", warnings=["Δt of 3 of 8 overlaps sits on its bound"])
+    (folder / "report.json").write_text(json.dumps(report))
+    build_gallery(collect(store=False, folders=[tmp_path / "results"]), tmp_path / "site")
+    (job_id, card), = cards(tmp_path / "site").items()
+    assert "random-weights" in card["data-search"]
+    index = (tmp_path / "site" / "index.html").read_text()
+    assert "random CLIP weights: a test result" in index
+    page = Page(tmp_path / "site" / "jobs" / job_id / "index.html").all_text
+    assert "Δt of 3 of 8 overlaps sits on its bound" in page
+    assert "random CLIP weights: a test result" in page

@@ -406,3 +406,21 @@ def test_the_built_ins_load_first_whatever_another_packages_entry_point_is_calle
     assert h.get("renderer", "raster")._inkmotion_origin.startswith("inkmotion (")
     assert [b.name for b in h.broken] == ["aaa"]
     sys.modules.pop("tp_early", None)
+
+
+@pytest.mark.parametrize("given", ["spectral_saliency", "inkmotion.plugins.spectral_saliency",
+                                   "spectral-saliency"])
+def test_a_plugin_is_switched_off_by_the_module_its_origin_column_shows(
+        monkeypatch, given: str) -> None:
+    """The README says to name "the module in the origin column of `inkmotion plugins`",
+    but only the entry-point name (spectral-saliency, shown nowhere) worked: the module's
+    names warned "which no installed plugin has"."""
+    import warnings
+
+    monkeypatch.setenv("INKMOTION_DISABLE_PLUGINS", given)
+    h = PluginHost()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        h.load_entry_points()
+    assert [d.name for d in h.disabled] == ["spectral-saliency"]
+    assert "spectral" not in h.plugins("saliency")

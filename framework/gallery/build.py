@@ -212,7 +212,9 @@ def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str,
                  if isinstance(v, (int, float)) and not isinstance(v, bool)][:3]
     metrics = [summary.figure(k, entry.metrics[k], entry.kind) for k in names]
     poor = entry.metrics.get("quality") == "poor"
+    random_weights = entry.report.get("clip_weights") == "random"
     search = " ".join([entry.id, entry.kind, entry.status, entry.label, *(["poor"] * poor),
+                       *(["random-weights"] * random_weights),
                        *(f"{k}={v}" for k, v in params)]).lower()
     return {"id": entry.id, "kind": entry.kind, "status": entry.status, "label": entry.label,
             "title": summary.short_label(entry.label),
@@ -224,7 +226,7 @@ def _card(entry: Entry, thumb: bool, params: list[tuple[str, str]]) -> dict[str,
             "progress": list(entry.progress) if entry.progress else None,
             "error": (entry.error or "").strip().splitlines()[0][:160] if entry.error else None,
             "problem": entry.problem, "search": search,
-            "poor": poor}
+            "poor": poor, "random_weights": random_weights}
 
 
 def _link(entry: Entry) -> dict[str, Any]:

@@ -75,12 +75,21 @@ class PluginHost:
         """
         import os
 
-        blocked = {n.strip() for n in os.environ.get(DISABLE_ENV, "").split(",") if n.strip()}
-        for name in blocked:
-            self.pm.set_blocked(name)
+        given = {n.strip() for n in os.environ.get(DISABLE_ENV, "").split(",") if n.strip()}
         found = sorted(entry_points(group=group), key=lambda e: (
             e.dist is None or e.dist.name != BUILT_IN, e.name))
-        unknown = sorted(blocked - {ep.name for ep in found})
+        # a plugin is named by its entry point, or by the module `inkmotion plugins` shows
+        # in its origin column (in full or its last part); an entry-point name always wins
+        aliases: dict[str, str] = {}
+        for ep in found:
+            module = ep.value.split(":")[0]
+            aliases.setdefault(module, ep.name)
+            aliases.setdefault(module.rsplit(".", 1)[-1], ep.name)
+        aliases.update({ep.name: ep.name for ep in found})
+        blocked = {aliases.get(name, name) for name in given}
+        for name in blocked:
+            self.pm.set_blocked(name)
+        unknown = sorted(name for name in given if name not in aliases)
         if unknown and group == ENTRY_POINT_GROUP:
             warnings.warn(f"{DISABLE_ENV} names {', '.join(map(repr, unknown))}, which no "
                           f"installed plugin has; entry points are: "
