@@ -53,6 +53,8 @@ from inkmotion.robot.limits import ArmLimits, arm_limits
 
 #: s: how long a connection may take before the robot counts as absent
 CONNECT_TIMEOUT_S = 10.0
+#: the TCP port of libfranka's FCI (its connection handshake)
+FCI_PORT = 1337
 #: joint stiffness N·m/rad of libfranka's joint impedance example (stiff shoulder, soft wrist)
 STIFFNESS = np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0])
 #: s: integral time of the tracking's integral action (τ_I = K/T_I ∫(q_d − q) dt), and its
@@ -92,6 +94,31 @@ def scheduling_kept() -> Iterator[None]:
             os.sched_setscheduler(0, policy, param)
 
 
+def _no_answer(host: str, timeout: float, timed_out: bool) -> str:
+    """Why nothing answered at ``host``, in one sentence: a name that does not resolve, a
+    machine that refuses the connection at once (up, but no FCI listening), or silence."""
+    import socket
+
+    try:
+        address = socket.getaddrinfo(host, FCI_PORT, type=socket.SOCK_STREAM)[0][4]
+    except (socket.gaierror, UnicodeError):
+        return (f"The robot's address {host} does not resolve to any machine; give the "
+                "FCI's IP (e.g. 172.16.0.2) or a hostname this computer knows.")
+    if not timed_out:
+        try:
+            with socket.create_connection(address[:2], timeout=1.0):
+                pass
+        except ConnectionRefusedError:
+            return (f"The machine at {host} refused the connection at once: it is up, but "
+                    "no FCI listens there; activate FCI in Desk (or start the simulator), "
+                    "and check that it is the robot's control box.")
+        except OSError:
+            pass
+    return (f"No Franka robot answered at {host} within {timeout:.0f} s; check the address, "
+            "the network cable to the robot's control box and that FCI is activated in "
+            "Desk.")
+
+
 def connect(host: str, *, realtime: bool = True,
             timeout: float = CONNECT_TIMEOUT_S) -> Any:
     """A ``franky.Robot`` connected to the FCI at ``host`` within ``timeout`` s; one
@@ -111,10 +138,7 @@ def connect(host: str, *, realtime: bool = True,
     thread.start()
     thread.join(timeout)
     if thread.is_alive() or isinstance(box.get("error"), franky.NetworkException):
-        raise ServiceError(
-            f"No Franka robot answered at {host} within {timeout:.0f} s; check the address, "
-            "the network cable to the robot's control box and that FCI is activated in "
-            "Desk.")
+        raise ServiceError(_no_answer(host, timeout, thread.is_alive()))
     error = box.get("error")
     if isinstance(error, franky.RealtimeException):
         raise RobotError(
