@@ -134,23 +134,34 @@ def _sample(stroke: Support, k: float, rate: float, mapping: PaperMapping,
     return position, speed / k, acc / k**2
 
 
-def rest_to_rest(a: np.ndarray, b: np.ndarray, v_max: float, a_max: float,
-                 rate: float) -> np.ndarray:
-    """The straight move a → b (3,) as a minimum-jerk profile sampled at ``rate``: (n + 1, 3)
-    positions, n = ⌈T·rate⌉, T = max(15/8·L/v_max, sqrt(10/√3·L/a_max)), so its speed
-    stays ≤ v_max and its acceleration ≤ a_max; just a (1, 3) when a = b."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    length = float(np.linalg.norm(b - a))
+def _quintic(length: float, v_max: float, a_max: float, rate: float) -> np.ndarray:
+    """The minimum-jerk profile s(τ) (n + 1,) of a rest-to-rest move of ``length`` at the
+    control ``rate``: n = ⌈T·rate⌉, T = max(15/8·L/v_max, sqrt(10/√3·L/a_max)), so its speed
+    stays ≤ v_max and its acceleration ≤ a_max; (1,) zero when nothing moves."""
     duration = max(QUINTIC_SPEED * length / v_max,
                    math.sqrt(QUINTIC_ACCELERATION * length / a_max))
     n = math.ceil(duration * rate - 1e-9)
     if n <= 0:
-        return a[None].copy()
+        return np.zeros(1)
     tau = np.arange(n + 1) / n
-    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+def rest_to_rest(a: np.ndarray, b: np.ndarray, v_max: float, a_max: float,
+                 rate: float) -> np.ndarray:
+    """The straight move a → b (3,) as a minimum-jerk profile sampled at ``rate``: (n + 1, 3)
+    positions (:func:`_quintic`); just a (1, 3) when a = b."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    s = _quintic(float(np.linalg.norm(b - a)), v_max, a_max, rate)
     out = a + s[:, None] * (b - a)
-    out[-1] = b
+    if len(s) > 1:
+        out[-1] = b
     return out
+
+
+def _angle(n_a: np.ndarray, n_b: np.ndarray) -> float:
+    """The angle (rad) between two unit vectors, accurate near 0 and π."""
+    return float(np.arctan2(np.linalg.norm(np.cross(n_a, n_b)), float(n_a @ n_b)))
 
 
 def turning_move(a: np.ndarray, b: np.ndarray, n_a: np.ndarray, n_b: np.ndarray,
@@ -159,13 +170,11 @@ def turning_move(a: np.ndarray, b: np.ndarray, n_a: np.ndarray, n_b: np.ndarray,
     and normals (n + 1, 3), both along one minimum-jerk profile s(τ) (module docstring:
     turning), lasting as :func:`rest_to_rest` over max(|b − a|, TURN_RADIUS·θ)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    theta = float(np.arctan2(np.linalg.norm(np.cross(n_a, n_b)), float(n_a @ n_b)))
-    length = max(float(np.linalg.norm(b - a)), TURN_RADIUS * theta)
-    duration = max(QUINTIC_SPEED * length / v_max,
-                   math.sqrt(QUINTIC_ACCELERATION * length / a_max))
-    n = max(1, math.ceil(duration * rate - 1e-9))
-    tau = np.arange(n + 1) / n
-    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    theta = _angle(n_a, n_b)
+    s = _quintic(max(float(np.linalg.norm(b - a)), TURN_RADIUS * theta), v_max, a_max, rate)
+    if len(s) == 1:  # neither moves nor turns: one period, to join the samples around it
+        s = np.array([0.0, 1.0])
+    n = len(s) - 1
     position = a + s[:, None] * (b - a)
     position[-1] = b
     if theta < SAME_AXIS:
@@ -225,8 +234,7 @@ def time_drawing(drawing: Drawing, setup: RobotSetup, start: np.ndarray | None =
     n_plane = plane.normal / np.linalg.norm(plane.normal)
     n_start = n_plane if start_normal is None else (
         np.asarray(start_normal, dtype=float) / np.linalg.norm(start_normal))
-    turns = float(np.arctan2(np.linalg.norm(np.cross(n_start, n_plane)),
-                             float(n_start @ n_plane))) >= SAME_AXIS
+    turns = _angle(n_start, n_plane) >= SAME_AXIS
     turned: dict[int, np.ndarray] = {}  # segment index -> its normals, where the pen turns
 
     def turn(a: np.ndarray, b: np.ndarray, n_a: np.ndarray, n_b: np.ndarray) -> np.ndarray:
