@@ -81,10 +81,13 @@ class PlotKind:
         return 3
 
     def check_inputs(self, job: ResolvedJob) -> None:
-        """Refuse a plan.json the run could not read (``inkmotion submit`` asks first)."""
+        """Refuse a plan.json or a machine file the run could not use (``inkmotion submit``
+        asks first)."""
         from inkmotion.kinds.read import check_plan_input
+        from inkmotion.plotter.machine import load_machine
 
         check_plan_input(job)
+        load_machine(job.params.machine, job.params.machine_file or None)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds.plot import run_plot

@@ -70,10 +70,13 @@ class SimulateKind:
         return 2 + len(params.backends)  # timing, joints, one per backend
 
     def check_inputs(self, job: ResolvedJob) -> None:
-        """Refuse a plan.json the run could not read (``inkmotion submit`` asks first)."""
+        """Refuse a plan.json or a setup file the run could not use (``inkmotion submit``
+        asks first)."""
         from inkmotion.kinds.read import check_plan_input
+        from inkmotion.kinds.simulate import job_setup
 
         check_plan_input(job)
+        job_setup(job.params.setup, job.params.v_max, job.params.a_max)
 
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds.simulate import run_simulate

@@ -399,6 +399,9 @@ _GOOD = ('name = "x"\nmax_feed = 80\nmax_accel = 800\njunction_deviation = 0.02\
     ('header = "G20\\nG90"', "holds G20"),  # inches: the mm numbers 25.4× too far
     ('header = "G21\\nG91"', "holds G91"),  # every move relative to the last
     ('footer = "G70"', "holds G70"),
+    ('pen_up = "M5G91"', "holds G91"),  # words need no space between them
+    ('pen_down = "G1Z0F1200G20"', "holds G20"),
+    ('header = "N10 G 91"', "holds G91"),
     ('pen_up = ""', "lift the pen"),  # every travel move would draw
     ('pen_down = "  "', "lower the pen"),
     ("pen_up = 5", "pen_up = 5 must be"),  # was AttributeError

@@ -391,3 +391,32 @@ def test_a_home_outside_the_joint_ranges_names_its_key():
     with pytest.raises(InputError, match=r"bench.toml: \[robot\] home joint 4 = 0 rad is "
                                          r"outside the Franka arms' range"):
         parse_setup(text, "bench.toml")
+
+
+def test_a_board_above_the_home_pen_tip_is_refused():
+    """A board 5 cm above home's pen tip: the move to the first stroke went through it; the
+    drawing ran to "done" with a slash through the letters, 69 N and 10 mm off the plan."""
+    from inkmotion.robot.program import plan_program
+
+    level = load_setup(None)
+    high = load_setup(None, overrides={"plane_points": (level.plane_points
+                                                         + [0.0, 0.0, 0.15]).tolist()})
+    drawing = Drawing.load(DATA / "v4_jobs" / "fit" / "plan.json")
+    with pytest.raises(InputError, match=r"The home pose's pen tip is 50 mm below the board "
+                                         r"\(\[plane\] points\), so the move to the first "
+                                         r"stroke would pass through it"):
+        plan_program(drawing, high)
+
+
+def test_a_home_outside_the_simulated_arm_s_range_names_the_joint():
+    """A home the FR3 allows (joint 6 at 3.9 rad) but the Panda does not said "q_start lies
+    within joint_margin of a joint limit; move the robot away from its limits"."""
+    from inkmotion.robot.program import plan_program
+
+    home = load_setup(None).home.copy()
+    home[5] = 3.9
+    setup = load_setup(None, overrides={"home": home})
+    drawing = Drawing.load(DATA / "v4_jobs" / "fit" / "plan.json")
+    with pytest.raises(InputError, match=r"\[robot\] home, or the arm's own\) has joint 6 at "
+                                         r"3\.9000 rad, outside this arm's range"):
+        plan_program(drawing, setup)

@@ -169,6 +169,29 @@ def test_an_input_its_run_would_refuse_is_refused_before_queueing(service_env, t
     assert len(store.list_jobs(limit=None)) == before
 
 
+@pytest.mark.parametrize("kind, option, content, message", [
+    ("simulate", "--setup", None, "contact_offset = 0.02 is outside"),
+    ("plot", "--machine-file", '[machine]\nname = "x"\nmax_feed = 80\nmax_accel = 800\n'
+     'junction_deviation = 0.02\npen_up = "M5"\npen_down = "M3"\ndwell = "G4 P1"\n'
+     'header = "G20"\n', "header holds G20"),
+])
+def test_a_setup_or_machine_file_its_run_would_refuse_is_refused_before_queueing(
+        service_env, tmp_path, kind, option, content, message):
+    from inkmotion.robot.setup import DEFAULT_SETUP
+
+    plan = tmp_path / "plan.json"
+    shutil.copy(DATA / "v4_jobs" / "fit" / "plan.json", plan)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(content if content is not None else DEFAULT_SETUP.read_text().replace(
+        "contact_offset = -0.0003", "contact_offset = 0.02"))
+    extra = ["--machine", "custom"] if kind == "plot" else []
+    before = len(store.list_jobs(limit=None))
+    res = inkmotion_cli("submit", kind, str(plan), option, str(bad), *extra)
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
+    assert message in res.stderr, res.stderr
+    assert len(store.list_jobs(limit=None)) == before
+
+
 def test_a_queued_job_s_error_names_the_file_as_the_user_gave_it(worker_pool, service_env,
                                                                   tmp_path):
     """The worker reads the copy submit made under the data directory; its error named that

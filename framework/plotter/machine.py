@@ -62,16 +62,19 @@ _REQUIRED = ("name", "max_feed", "max_accel", "junction_deviation", "pen_up", "p
 
 
 #: G-code words that change what the plot's coordinates and feeds mean: inches (G20, G70),
-#: relative moves (G91), inverse-time feed (G93). (A work offset, G54–G59 or G92, moves the
-#: origin, which a header may do on purpose.)
-_MODAL = re.compile(r"(?<![A-Z0-9.])(G0*20|G0*70|G0*91(?!\.1)|G0*93)(?![0-9])",
-                    re.IGNORECASE)
+#: relative moves (G91; G91.1 only sets arc centres), inverse-time feed (G93). (A work
+#: offset, G54–G59 or G92, moves the origin, which a header may do on purpose.)
+_MODAL = {20.0: "G20", 70.0: "G70", 91.0: "G91", 93.0: "G93"}
+#: a G-code word: its letter and number, spaces allowed between (``G 91``), none needed
+#: before the next word (``M5G91``, ``N10G20``)
+_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.IGNORECASE)
 
 
 def _mode_changes(gcode: str) -> list[str]:
     """The words of ``gcode`` (comments left out) that change the coordinates' meaning."""
     code = re.sub(r"\([^)]*\)|;.*", "", gcode)
-    return sorted({m.group(1).upper() for m in _MODAL.finditer(code)})
+    return sorted({_MODAL[float(number)] for letter, number in _WORD.findall(code)
+                   if letter.upper() == "G" and float(number) in _MODAL})
 
 
 def load_machine(name: str, file: str | Path | None = None) -> Machine:

@@ -374,9 +374,13 @@ def _start(problem: _Problem, first: np.ndarray, normal: np.ndarray,
     if q_start is None:
         return _solve_ik(problem, first, normal, tolerances)
     q0 = np.asarray(q_start, dtype=float)
-    if np.any(q0 <= problem.lower) or np.any(q0 >= problem.upper):
-        raise InputError("q_start lies within joint_margin of a joint limit; move the robot "
-                         "away from its limits or reduce joint_margin.")
+    outside = np.flatnonzero((q0 <= problem.lower) | (q0 >= problem.upper))
+    if len(outside):
+        j = int(outside[0])
+        raise InputError(f"The start pose (the setup's [robot] home, or the arm's own) has "
+                         f"joint {j + 1} at {q0[j]:.4f} rad, outside this arm's range "
+                         f"{problem.lower[j]:.4f} to {problem.upper[j]:.4f} rad (its limits "
+                         "less joint_margin); give a home inside it, or reduce joint_margin.")
     pos_err, ang_err = _pose_errors(problem, q0[None], first[None], normal[None])
     if pos_err[0] > tolerances[0] or ang_err[0] > tolerances[1]:
         raise InputError(

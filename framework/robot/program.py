@@ -12,6 +12,8 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from inkmotion.robot.types import RobotProgram
 
 if TYPE_CHECKING:
@@ -39,6 +41,7 @@ def plan_program(drawing: Drawing, setup: RobotSetup,
     t0 = time.perf_counter()
     mapping = PaperMapping.from_canvas(drawing.canvas, setup.paper, setup.margin)
     home_tip, home_axis = pen_poses(pen_model(setup.pen_length), setup.home[None])
+    _check_home_above_board(home_tip[0], setup)
     cartesian = time_drawing(drawing, setup, start=home_tip[0], mapping=mapping,
                              start_normal=-home_axis[0])
     check_reachable(cartesian.position, cartesian.pen_normals(), setup.pen_length,
@@ -60,3 +63,26 @@ def plan_program(drawing: Drawing, setup: RobotSetup,
     info = {"timing_s": round(timing_s, 3), "joints_s": round(joints_s, 3),
             "planning_s": round(timing_s + joints_s, 3), "limits": limits_info}
     return RobotProgram(setup, mapping, drawing.canvas, cartesian, joints, info, drawing)
+
+
+#: m: the home pose's pen tip must be at least this far above the board (on the robot's
+#: side of its plane): the first and last moves run straight between it and pen-up height
+HOME_CLEARANCE = 0.005
+
+
+def _check_home_above_board(tip: np.ndarray, setup: RobotSetup) -> None:
+    """Refuse a setup whose home pen tip is not above the board: the straight move from
+    home to the first stroke (and back) would pass through the board (it was drawn through,
+    with 69 N, 10 mm off the plan, and a report of "done")."""
+    from inkmotion.errors import InputError
+
+    plane = setup.plane
+    gap = float((tip - plane.origin) @ plane.normal)
+    if gap >= HOME_CLEARANCE:
+        return
+    where = (f"{-gap * 1e3:.0f} mm below the board" if gap < 0 else
+             f"only {gap * 1e3:.1f} mm above the board")
+    raise InputError(f"The home pose's pen tip is {where} ([plane] points), so the move to "
+                     "the first stroke would pass through it; teach a home pose "
+                     f"at least {HOME_CLEARANCE * 1e3:.0f} mm above the board, or lower the "
+                     "board.")
