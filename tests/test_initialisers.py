@@ -200,3 +200,22 @@ def test_line_default_is_a_zigzag_centred_on_the_canvas() -> None:
     torch.testing.assert_close(centre, torch.tensor([175.0, 175.0]), atol=6.0, rtol=0)
     dy = torch.diff(plan.points[:, 1])
     assert torch.all(dy[::2] < 0) and torch.all(dy[1::2] > 0)  # up, down, up, ...
+
+
+def test_a_tour_is_written_one_way_whatever_the_solver_s_start_and_direction():
+    """fast-tsp returned the same cycle reversed from one run to the next; opened into a
+    path, the stroke then started at its other end and `run --config` of an abstract job
+    gave another plan.json (149 of 149 edges the same)."""
+    import numpy as np
+
+    from inkmotion.initialisers.tour import canonical_cycle, open_cycle, solve_tour
+
+    rng = np.random.default_rng(3)
+    points = rng.uniform(0, 100, (40, 2))
+    tour = solve_tour(points, "2-opt")
+    assert tour[0] == 0 and tour[1] < tour[-1]
+    for shift in (0, 7, 23):
+        for cycle in (np.roll(tour, shift), np.roll(tour[::-1], shift)):
+            assert np.array_equal(canonical_cycle(cycle), tour)
+            assert np.array_equal(open_cycle(points, canonical_cycle(cycle)),
+                                  open_cycle(points, tour))

@@ -29,8 +29,9 @@ fixed half second. OR-Tools' guided local search (the authors' solver) is 2–18
 the same time (still 2–12 % with 5 s), and 2-opt 4–7 % longer. The price of a time budget:
 above a few hundred points the tour depends on how much search fits in it (tours of equal
 length ± 0.1 %, not identical between runs); at the paper's 150 points fast-tsp converges
-in < 0.05 s, long before the budget, and its tour repeats. Use ``elkai`` where a large tour
-must reproduce exactly.
+in < 0.05 s, long before the budget, and its tour repeats (written one way:
+:func:`canonical_cycle`, for its start and direction vary from run to run). Use
+``elkai`` where a large tour must reproduce exactly.
 """
 
 from __future__ import annotations
@@ -181,6 +182,17 @@ def solve_tour(points: np.ndarray, solver: str = DEFAULT_SOLVER, *,
     else:
         raise ValueError(f"unknown TSP solver {solver!r}; one of {SOLVERS}")
     assert sorted(order.tolist()) == list(range(n)), f"{solver} returned no permutation"
+    return canonical_cycle(order)
+
+
+def canonical_cycle(order: np.ndarray) -> np.ndarray:
+    """The closed tour ``order`` written one way only: from point 0, towards the smaller of
+    its two neighbours. A solver may return the same cycle from any start and in either
+    direction (fast-tsp does, run to run), which opened into a path put the stroke's start
+    at its other end: the same job gave another plan."""
+    order = np.roll(np.asarray(order, dtype=np.int64), -int(np.argmin(order)))
+    if order.size > 2 and order[1] > order[-1]:
+        order = np.concatenate([order[:1], order[:0:-1]])
     return order
 
 
