@@ -364,3 +364,26 @@ def test_clip_text_decreases_over_30_steps(device: torch.device) -> None:
         before, after = (float(clip_text_loss(loss.clip, coverage_to_rgb(img), text, params))
                          for img in (initial, final))
     assert math.isfinite(after) and after < before - 0.02, (before, after)
+
+
+def test_a_download_that_cannot_reach_the_hub_is_one_sentence(monkeypatch):
+    """`inkmotion clip download` offline ended in a 91-line traceback (FileNotFoundError
+    from the hub's client). The network is not reached here: the hub's download function
+    raises what it raises offline."""
+    import open_clip.pretrained
+
+    from inkmotion.clip import weights
+    from inkmotion.errors import ServiceError
+
+    cfg = weights._tag_cfg(weights.model_name("ViT-B-32"), "laion2b_s34b_b79k")
+    if weights.cached_checkpoint(cfg) is not None:
+        pytest.skip("the weights are in this machine's cache: nothing to download")
+
+    def offline(*args, **kwargs):
+        raise FileNotFoundError("Failed to download file (open_clip_pytorch_model.bin) for "
+                                "laion/CLIP-ViT-B-32-laion2B-s34B-b79K. Last error: ...")
+
+    monkeypatch.setattr(open_clip.pretrained, "download_pretrained_from_hf", offline)
+    with pytest.raises(ServiceError, match=r"could not be downloaded from .* \(Failed to "
+                                           r"download file .*\); connect this machine"):
+        weights.download("ViT-B-32", "laion2b_s34b_b79k")

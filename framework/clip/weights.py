@@ -213,11 +213,23 @@ def download(model: str, pretrained: str) -> Path:
     found = cached_checkpoint(cfg)
     if found is not None:
         return found
-    if cfg.get("hf_hub"):
-        repo, filename = os.path.split(cfg["hf_hub"])
-        return Path(download_pretrained_from_hf(repo, filename=filename or None,
-                                                cache_dir=str(hf_hub_cache())))
-    if cfg.get("url"):
-        return Path(download_pretrained_from_url(cfg["url"], cache_dir=str(url_cache())))
+    from inkmotion.errors import ServiceError
+
+    source = cfg.get("hf_hub") or cfg.get("url")
+    try:
+        if cfg.get("hf_hub"):
+            repo, filename = os.path.split(cfg["hf_hub"])
+            return Path(download_pretrained_from_hf(repo, filename=filename or None,
+                                                    cache_dir=str(hf_hub_cache())))
+        if cfg.get("url"):
+            return Path(download_pretrained_from_url(cfg["url"],
+                                                     cache_dir=str(url_cache())))
+    except Exception as exc:  # noqa: BLE001 - the hub's and urllib's errors alike
+        text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        reason = text.split(". ")[0][:120]
+        raise ServiceError(f"The CLIP weights {name}/{pretrained} could not be downloaded "
+                           f"from {source} ({reason}); connect this machine to the internet "
+                           "and try again, or copy an open_clip checkpoint here and pass "
+                           "--clip-weights PATH.") from exc
     raise SpecError(f"The CLIP weights {name}/{pretrained} name no download source; pass "
                     "--clip-weights PATH (an open_clip checkpoint).")
