@@ -234,3 +234,17 @@ def test_a_drawing_that_never_moves_is_sprayed_as_a_dot() -> None:
     assert np.isfinite(preview.opacity).all()
     rows, cols = np.nonzero(preview.opacity > 0.2)
     assert len(rows) > 5 and abs(cols.mean() - 100) < 5 and abs(rows.mean() - 50) < 5
+
+
+def test_a_varying_width_is_sprayed_as_wide_as_its_radius() -> None:
+    """The preview sprayed every stroke of a 2.5D plan at the plan's one width (hairlines
+    and fat strokes alike), while drawing.png showed them thin and fat."""
+    line = MotorPlan.from_points(torch.tensor([[20.0, 50.0, 0.5], [200.0, 50.0, 3.0],
+                                               [380.0, 50.0, 6.0]]), dtype=torch.float64)
+    preview = spray_preview(Drawing((400.0, 100.0), [line]), 400, seed=0)
+
+    def thickness(x: int) -> int:
+        column = preview.opacity[:, x - 3:x + 4].mean(axis=1)
+        return int((column > 0.3).sum())
+
+    assert thickness(340) > 3 * thickness(60) > 0

@@ -77,10 +77,11 @@ class SprayPreview:
     samples: list[tuple[np.ndarray, np.ndarray]]
 
 
-def _samples(plan: object, scale: float, step_px: float) -> tuple[np.ndarray, np.ndarray,
-                                                                   float]:
-    """Positions (n, 2) on the output canvas, planar speeds (n,) in output px/s and the time
-    step of ``plan`` sampled uniformly in time at most ``step_px`` apart."""
+def _samples(plan: object, scale: float, step_px: float
+             ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+    """Positions (n, 2) on the output canvas, planar speeds (n,) in output px/s, the time
+    step of ``plan`` sampled uniformly in time at most ``step_px`` apart, and the pen's
+    half width there (n,) in output px: a 2.5D plan's radius coordinate, else width / 2."""
     import torch
 
     from inkmotion.outputs.sampling import sample
@@ -97,10 +98,13 @@ def _samples(plan: object, scale: float, step_px: float) -> tuple[np.ndarray, np
         kin = kinematics(p, t)
     xy = kin.positions[:, :2].numpy() * scale
     speed = kin.velocities[:, :2].norm(dim=1).numpy() * scale
-    return xy, speed, duration / (n - 1)
+    half = (kin.positions[:, 2].numpy() * scale if kin.positions.shape[1] > 2
+            else np.full(n, plan.width * scale / 2))  # type: ignore[attr-defined]
+    return xy, speed, duration / (n - 1), np.maximum(half, 0.5)
 
 
-def _spread(speed: np.ndarray, v_ref: float, sigma0: float, style: SprayStyle) -> np.ndarray:
+def _spread(speed: np.ndarray, v_ref: float, sigma0: float | np.ndarray,
+            style: SprayStyle) -> np.ndarray:
     ratio = (v_ref / np.maximum(speed, 1e-9)) ** style.spread_exponent
     return sigma0 * np.clip(ratio, 1.0 / style.spread_cap, style.spread_cap)
 
@@ -164,12 +168,14 @@ def spray_preview(drawing: object, size: int, seed: int = 0,
     v_ref = float(np.median(moving)) if len(moving) else STILL_PX_S
     amount = np.zeros((height, width), dtype=np.float32)
     drips: list[Drip] = []
-    for plan, (xy, speed, dt) in zip(plans, samples, strict=True):
-        sigma0 = max(0.5, plan.width * scale / 2)
-        per_px = style.particles_per_px2 * math.sqrt(2 * math.pi) * sigma0  # along a path
-        flow = per_px * v_ref  # particles per s
+    for xy, speed, dt, half in samples:
+        # σ0 per sample: a varying width sprays each stretch as wide as its radius
+        sigma0 = float(np.median(half))  # the drips' scale
+        per_px = style.particles_per_px2 * math.sqrt(2 * math.pi) * half  # along a path
+        flow = per_px * v_ref  # particles per s, per sample
         counts = rng.poisson(flow * dt, size=len(xy))
-        spread = _spread(speed, v_ref, sigma0, style)
+        spread = _spread(speed, v_ref, half, style)
+        flow = float(np.median(flow))
         where = np.repeat(xy, counts, axis=0)
         where = where + rng.normal(size=where.shape) * np.repeat(spread, counts)[:, None]
         col = np.floor(where[:, 0]).astype(np.int64)
