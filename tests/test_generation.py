@@ -208,3 +208,19 @@ def test_clip_status_says_what_is_missing_and_what_is_ready(tmp_path: Path) -> N
     assert missing.returncode == 1 and "inkmotion clip download" in missing.stdout
     ready = inkmotion("clip", "status", "--model", TINY, "--weights", "random", env=env)
     assert ready.returncode == 0 and "ready" in ready.stdout
+
+
+def test_a_caption_longer_than_clip_reads_is_said(tmp_path: Path) -> None:
+    """A 5000-letter word and a 1000-letter one gave byte-identical tags: CLIP reads 77
+    tokens and the rest (", a stylish graffiti tag" too) was cut off without a word."""
+    from inkmotion.jobs.shell import run_job
+    from inkmotion.jobs.spec import JobSpec
+
+    spec = JobSpec(kind="tag", inputs={"word": "WILDSTYLE " * 40}, params={
+        "clip_model": TINY, "clip_weights": "random", "steps": 2, "targets": 6, "size": 64})
+    report = run_job(spec, tmp_path / "long")
+    (said,) = [w for w in report["warnings"] if "CLIP tokens" in w]
+    assert "the caption is 87 CLIP tokens and CLIP reads 77: its last 10 are cut off" in said
+    short = run_job(JobSpec(kind="tag", inputs={"word": "WILD"}, params=spec.params),
+                    tmp_path / "short")
+    assert not [w for w in short["warnings"] if "CLIP tokens" in w]

@@ -97,8 +97,7 @@ class LoadedClip:
         differentiable with respect to ``images``."""
         return F.normalize(self.model.encode_image(self.preprocess(images)), dim=-1)
 
-    def encode_text(self, texts: list[str]) -> torch.Tensor:
-        """(B, E) L2-normalised text embeddings f(c), without gradient."""
+    def _text_tokenizer(self) -> Any:
         if self._tokenizer is None:
             import open_clip
 
@@ -108,7 +107,22 @@ class LoadedClip:
                 raise SpecError(f"The tokenizer of the CLIP model {self.name} could not be "
                                 f"loaded ({_first_line(exc)}); use a model with open_clip's "
                                 "own tokenizer, such as ViT-B-32.") from None
-        tokens = self._tokenizer(list(texts)).to(self.device)
+        return self._tokenizer
+
+    def tokens_cut(self, text: str) -> tuple[int, int]:
+        """(tokens of ``text`` with its start and end marks, the context length CLIP reads):
+        the tokens past the context are cut off, unseen (0, 0 for a tokenizer that cannot
+        count them)."""
+        tokenizer = self._text_tokenizer()
+        encode = getattr(tokenizer, "encode", None)
+        context = getattr(tokenizer, "context_length", None)
+        if encode is None or not isinstance(context, int):
+            return 0, 0
+        return len(encode(text)) + 2, context
+
+    def encode_text(self, texts: list[str]) -> torch.Tensor:
+        """(B, E) L2-normalised text embeddings f(c), without gradient."""
+        tokens = self._text_tokenizer()(list(texts)).to(self.device)
         with torch.no_grad():
             return F.normalize(self.model.encode_text(tokens), dim=-1)
 

@@ -188,6 +188,12 @@ def run_tag(job: Job) -> dict[str, Any]:
     report = write_generation(job, staged, init, canvas, clip=clip, caption=caption)
     report["word"] = word
     report["caption"] = caption
+    tokens, context = clip.tokens_cut(caption)
+    if tokens > context > 0:
+        report["warnings"] = [*report.get("warnings", []), (
+            f"the caption is {tokens} CLIP tokens and CLIP reads {context}: its last "
+            f"{tokens - context} are cut off unseen (for a long word, its end and \"{p.caption}"
+            "\"'s words after {word}); give a shorter word or --caption.")]
     return report
 
 
