@@ -208,6 +208,18 @@ def test_clip_status_says_what_is_missing_and_what_is_ready(tmp_path: Path) -> N
     assert missing.returncode == 1 and "inkmotion clip download" in missing.stdout
     ready = inkmotion("clip", "status", "--model", TINY, "--weights", "random", env=env)
     assert ready.returncode == 0 and "ready" in ready.stdout
+    assert "random weights: results are meaningless" in ready.stdout
+    # a checkpoint of another model said "ready", and the job then refused it
+    import torch
+
+    from inkmotion.clip.model import load_clip
+
+    other = tmp_path / "tiny.pt"
+    torch.save(load_clip(TINY, weights="random").model.state_dict(), other)
+    wrong = inkmotion("clip", "status", "--weights", str(other), env=env)
+    assert wrong.returncode == 1 and "does not load into the model ViT-B-32" in wrong.stderr
+    right = inkmotion("clip", "status", "--model", TINY, "--weights", str(other), env=env)
+    assert right.returncode == 0 and "ready" in right.stdout, right.stderr
 
 
 def test_a_caption_longer_than_clip_reads_is_said(tmp_path: Path) -> None:

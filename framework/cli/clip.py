@@ -31,20 +31,29 @@ def status_cmd(model: ModelOpt = DEFAULT_CLIP_MODEL,
                pretrained: PretrainedOpt = DEFAULT_CLIP_PRETRAINED,
                weights: Annotated[str, typer.Option(
                    "--weights", help="auto, a checkpoint file, or random.")] = "auto") -> None:
-    """Say whether a job with these CLIP settings can run offline (exit 1 when not).
+    """Say whether a job with these CLIP settings can run offline (exit 1 when not); a
+    checkpoint file is loaded into the model to be sure.
 
     Example: inkmotion clip status --model ViT-B-32 --pretrained laion2b_s34b_b79k
     """
-    from inkmotion.clip.model import weights_problem
+    import warnings
+
+    from inkmotion.clip.model import RANDOM_WARNING, load_clip, weights_problem
 
     try:
         problem = weights_problem(model, pretrained, weights)
+        if problem is None and weights not in ("auto", "random"):
+            with warnings.catch_warnings():  # a checkpoint file: does it load into the model?
+                warnings.filterwarnings("ignore", message=RANDOM_WARNING)
+                load_clip(model, pretrained, weights, "cpu")
     except InkmotionError as exc:
         fail(exc)
     if problem is not None:
         out.print(problem, highlight=False, soft_wrap=True)
         raise typer.Exit(1)
-    out.print(f"{model} ({pretrained}, weights {weights}): ready, no network needed.",
+    note = (" (random weights: results are meaningless except for tests)"
+            if weights == "random" else "")
+    out.print(f"{model} ({pretrained}, weights {weights}): ready, no network needed{note}.",
               highlight=False)
 
 

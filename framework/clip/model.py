@@ -259,7 +259,10 @@ def _without_random_notice() -> Iterator[None]:
 
 
 def _first_line(exc: Exception) -> str:
-    """An exception's first line (at most 200 characters), or its type's name."""
+    """An exception's first line (at most 200 characters), or its type's name; a missing
+    key is said as one (a bare KeyError reads as just the key: "(105)")."""
+    if isinstance(exc, KeyError) and exc.args:
+        return f"it has no entry {exc.args[0]!r} the model reads"
     text = str(exc).strip()
     return text.splitlines()[0][:200] if text else type(exc).__name__
 
