@@ -134,8 +134,13 @@ def _check_inputs(kind: Any, spec: JobSpec, source: str, check_files: bool) -> N
                         f"its inputs are {', '.join(declared) or 'none'}.")
     for name, info in declared.items():
         value = spec.inputs.get(name, "")
-        if not value:
-            raise SpecError(f"The {spec.kind} job needs its {name} input: {info.help}")
+        if not str(value).strip():
+            help_text = info.help.rstrip(".")
+            example = next(iter(getattr(kind, "examples", ()) or ()), None)
+            raise SpecError(f"The {spec.kind} job needs its {name} input ("
+                            f"{help_text[:1].lower()}{help_text[1:]})"
+                            + (f", e.g. {example.split('  #')[0].strip()}." if example
+                               else "."))
         if not check_files or info.form == "text":
             continue
         value = locate(value)  # sample:NAME -> its shipped file; an unknown name is refused
