@@ -43,7 +43,7 @@ from inkmotion.robot.kinematics import (
     pen_model,
     pen_poses,
 )
-from inkmotion.robot.limits import joint_limit_ratios
+from inkmotion.robot.limits import first_outside, joint_limit_ratios
 from inkmotion.robot.types import JointTrajectory
 
 _DOF = 7
@@ -374,9 +374,8 @@ def _start(problem: _Problem, first: np.ndarray, normal: np.ndarray,
     if q_start is None:
         return _solve_ik(problem, first, normal, tolerances)
     q0 = np.asarray(q_start, dtype=float)
-    outside = np.flatnonzero((q0 <= problem.lower) | (q0 >= problem.upper))
-    if len(outside):
-        j = int(outside[0])
+    j = first_outside(q0, problem.lower, problem.upper)
+    if j is not None:
         raise InputError(f"The start pose (the setup's [robot] home, or the arm's own) has "
                          f"joint {j + 1} at {q0[j]:.4f} rad, outside this arm's range "
                          f"{problem.lower[j]:.4f} to {problem.upper[j]:.4f} rad (its limits "

@@ -85,6 +85,12 @@ ACCELERATION_LIMITS = PANDA.acceleration
 JERK_LIMITS = PANDA.jerk
 #: the joint limits by derivative order (1: velocity, 2: acceleration, 3: jerk)
 JOINT_LIMITS = PANDA.by_order()
+def first_outside(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> int | None:
+    """The first joint of ``q`` (7,) at or beyond its open range (lower, upper), or None."""
+    outside = np.flatnonzero((q <= lower) | (q >= upper))
+    return int(outside[0]) if len(outside) else None
+
+
 #: Cartesian limits of the flange: speed m/s, acceleration m/s²
 CARTESIAN_SPEED_LIMIT = 1.7
 CARTESIAN_ACCELERATION_LIMIT = 13.0

@@ -25,6 +25,7 @@ from inkmotion.robot.limits import (
     CARTESIAN_SPEED_LIMIT,
     FR3,
     PANDA,
+    first_outside,
 )
 
 try:
@@ -256,9 +257,8 @@ def _build(v: dict[str, Any], source: str) -> RobotSetup:
     home, margin_rad = v["robot.home"], v["limits.joint_margin"]
     lower = np.minimum(PANDA.lower, FR3.lower)  # the arm is chosen later: either may draw
     upper = np.maximum(PANDA.upper, FR3.upper)
-    outside = np.flatnonzero((home <= lower + margin_rad) | (home >= upper - margin_rad))
-    if len(outside):
-        j = int(outside[0])
+    j = first_outside(home, lower + margin_rad, upper - margin_rad)
+    if j is not None:
         raise InputError(f"{source}: [robot] home joint {j + 1} = {home[j]:g} rad is outside "
                          f"the Franka arms' range {lower[j]:.4f} to {upper[j]:.4f} rad less "
                          f"joint_margin {margin_rad:g}; give a home inside it (the default's "
