@@ -39,10 +39,11 @@ def status_cmd(model: ModelOpt = DEFAULT_CLIP_MODEL,
     import warnings
 
     from inkmotion.clip.model import RANDOM_WARNING, load_clip, weights_problem
+    from inkmotion.clip.weights import AUTO, RANDOM
 
     try:
         problem = weights_problem(model, pretrained, weights)
-        if problem is None and weights not in ("auto", "random"):
+        if problem is None and weights not in (AUTO, RANDOM):
             with warnings.catch_warnings():  # a checkpoint file: does it load into the model?
                 warnings.filterwarnings("ignore", message=RANDOM_WARNING)
                 load_clip(model, pretrained, weights, "cpu")
@@ -52,7 +53,7 @@ def status_cmd(model: ModelOpt = DEFAULT_CLIP_MODEL,
         out.print(problem, highlight=False, soft_wrap=True)
         raise typer.Exit(1)
     note = (" (random weights: results are meaningless except for tests)"
-            if weights == "random" else "")
+            if weights == RANDOM else "")
     out.print(f"{model} ({pretrained}, weights {weights}): ready, no network needed{note}.",
               highlight=False)
 

@@ -6,7 +6,7 @@ own (``;``), so line-oriented readers see bare commands."""
 
 from __future__ import annotations
 
-from inkmotion.plotter.machine import Machine
+from inkmotion.plotter.machine import Machine, gcode_words
 from inkmotion.plotter.program import Block
 from inkmotion.plotter.resolution import feed_text
 
@@ -14,10 +14,10 @@ from inkmotion.plotter.resolution import feed_text
 def write_gcode(blocks: list[Block], machine: Machine, comments: list[str] = ()) -> str:
     """The G-code text of ``blocks`` on ``machine``, with ``comments`` at the top."""
     lines = [f"; {c}" for c in comments]
-    header = machine.header.splitlines()
-    words = {w.upper() for line in header for w in line.split(";")[0].split()}
+    words = gcode_words(machine.header)
     # millimetres and absolute coordinates, whatever a custom header left out
-    lines += header + [w for w in ("G21", "G90") if w not in words]
+    lines += machine.header.splitlines() + [f"G{n}" for n in (21, 90)
+                                            if ("G", float(n)) not in words]
     lines += machine.pen_up.splitlines()
     for b in blocks:
         if b.kind == "travel":

@@ -70,11 +70,16 @@ _MODAL = {20.0: "G20", 70.0: "G70", 91.0: "G91", 93.0: "G93"}
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.IGNORECASE)
 
 
-def _mode_changes(gcode: str) -> list[str]:
-    """The words of ``gcode`` (comments left out) that change the coordinates' meaning."""
+def gcode_words(gcode: str) -> set[tuple[str, float]]:
+    """The words of ``gcode`` (comments left out) as (letter, number): ``G21`` → ("G", 21)."""
     code = re.sub(r"\([^)]*\)|;.*", "", gcode)
-    return sorted({_MODAL[float(number)] for letter, number in _WORD.findall(code)
-                   if letter.upper() == "G" and float(number) in _MODAL})
+    return {(letter.upper(), float(number)) for letter, number in _WORD.findall(code)}
+
+
+def _mode_changes(gcode: str) -> list[str]:
+    """The words of ``gcode`` that change the coordinates' meaning."""
+    return sorted({_MODAL[number] for letter, number in gcode_words(gcode)
+                   if letter == "G" and number in _MODAL})
 
 
 def load_machine(name: str, file: str | Path | None = None) -> Machine:
@@ -124,13 +129,12 @@ def load_machine(name: str, file: str | Path | None = None) -> Machine:
                              "correct it.")
     for key in ("name", "pen_up", "pen_down", "dwell", "header", "footer"):
         value = getattr(machine, key)
-        if not isinstance(value, str) or (key in ("pen_up", "pen_down") and not value.strip()):
-            raise InputError(f"machine file {file}: {key} = {value!r} must be "
-                             + ("the G-code line(s) that " + ("lift" if key == "pen_up" else
-                                                               "lower") + " the pen (a "
-                                "plot without them draws every travel move)"
-                                if key in ("pen_up", "pen_down") else "text")
-                             + "; correct it.")
+        pen = {"pen_up": "lift", "pen_down": "lower"}.get(key)
+        if not isinstance(value, str) or (pen is not None and not value.strip()):
+            what = (f"the G-code line(s) that {pen} the pen (a plot without them draws "
+                    "every travel move)" if pen is not None else "text")
+            raise InputError(f"machine file {file}: {key} = {value!r} must be {what}; "
+                             "correct it.")
         modal = _mode_changes(value) if key != "name" else []
         if modal:
             raise InputError(f"machine file {file}: {key} holds {', '.join(modal)}, which "

@@ -76,8 +76,7 @@ def _check_home_above_board(tip: np.ndarray, setup: RobotSetup) -> None:
     with 69 N, 10 mm off the plan, and a report of "done")."""
     from inkmotion.errors import InputError
 
-    plane = setup.plane
-    gap = float((tip - plane.origin) @ plane.normal)
+    gap = float(setup.plane.to_plane(tip)[1][0])
     if gap >= HOME_CLEARANCE:
         return
     where = (f"{-gap * 1e3:.0f} mm below the board" if gap < 0 else

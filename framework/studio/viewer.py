@@ -92,12 +92,9 @@ def quiet_env(home: Path) -> dict[str, str]:
     in ``home``, with an ``analytics.json`` there that turns its usage statistics off
     (where the binary looks for it: XDG folders on Linux, ``~/Library/Application
     Support`` on macOS, the app-data folders on Windows)."""
-    places = {  # variable -> the rerun folder under it that holds its config
-        "XDG_CONFIG_HOME": home / "config" / "rerun",
-        "HOME": home / "Library" / "Application Support" / "rerun",
-        "APPDATA": home / "AppData" / "Roaming" / "rerun" / "config",
-    }
-    for folder in places.values():
+    for folder in (home / "config" / "rerun",  # under XDG_CONFIG_HOME, HOME and APPDATA
+                   home / "Library" / "Application Support" / "rerun",
+                   home / "AppData" / "Roaming" / "rerun" / "config"):
         folder.mkdir(parents=True, exist_ok=True)
         config = {"analytics_enabled": False, "analytics_id": "inkmotion-studio",
                   "metadata": {}, "config_file_path": str(folder / "analytics.json"),
