@@ -1,14 +1,17 @@
-"""The fit's Adam: torch.optim.Adam's arithmetic, one learning rate per tensor."""
+"""The fit's Adam: torch.optim.Adam's arithmetic, one learning rate per tensor, each
+product and sum rounded on its own (the same bits on every CPU: test_portable_math)."""
 
+import pytest
 import torch
 
 from inkmotion.fitting.optimise import Adam
 
 
-def test_steps_are_torch_adams_bit_for_bit_under_a_changing_schedule() -> None:
+@pytest.mark.parametrize("dtype,tolerance", [(torch.float64, 1e-12), (torch.float32, 1e-5)])
+def test_steps_are_torch_adams_to_round_off_under_a_changing_schedule(dtype, tolerance) -> None:
     g = torch.Generator().manual_seed(0)
     shapes, lrs = [(13, 2), (11,), (11,), (11,)], [1.0, 0.05, 0.01, 0.002]
-    start = [torch.randn(s, generator=g) for s in shapes]
+    start = [torch.randn(s, generator=g, dtype=dtype) for s in shapes]
     ours = [t.clone().requires_grad_(True) for t in start]
     theirs = [t.clone().requires_grad_(True) for t in start]
     adam = Adam(list(zip(ours, lrs, strict=True)))
@@ -18,13 +21,15 @@ def test_steps_are_torch_adams_bit_for_bit_under_a_changing_schedule() -> None:
     for k in range(200):
         factor = 0.3 + 0.7 * (k % 7) / 7
         for mine, ref, shape in zip(ours, theirs, shapes, strict=True):
-            grad = torch.randn(shape, generator=g) * 10.0 ** (k % 5 - 2)
+            grad = torch.randn(shape, generator=g, dtype=dtype) * 10.0 ** (k % 5 - 2)
             mine.grad, ref.grad = grad.clone(), grad.clone()
         for group, lr in zip(reference.param_groups, lrs, strict=True):
             group["lr"] = lr * factor
         adam.step(factor)
         reference.step()
-    assert all(torch.equal(a, b) for a, b in zip(ours, theirs, strict=True))
+    for a, b, s in zip(ours, theirs, start, strict=True):
+        assert torch.allclose(a, b, rtol=tolerance, atol=tolerance)
+        assert (a - s).abs().max() > 0.01  # it moved
 
 
 def test_a_tensor_without_a_gradient_is_left_as_it_is() -> None:

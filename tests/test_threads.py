@@ -143,13 +143,21 @@ def test_the_image_loss_gradient_is_the_same_bits_under_any_thread_count():
     assert all(torch.equal(grads[0], other) for other in grads[1:])
 
 
+#: what numpy may not use on a machine of AVX2 at most (numpy's own CPU dispatch)
+NO_AVX512 = "X86_V4 AVX512_ICL AVX512_SPR"
+
+
 @pytest.mark.slow
-def test_a_fit_is_the_same_bits_under_1_2_4_threads_and_another_mkl_code_path(tmp_path):
-    """The same job under other thread counts and MKL's AVX2 code path
-    (MKL_CBWR, where the machine has more) gives the same plan.json, byte for byte."""
+def test_a_fit_is_the_same_bits_under_1_2_4_threads_and_other_cpu_code_paths(tmp_path):
+    """The same job under other thread counts, MKL's AVX2 code path (MKL_CBWR, where the
+    machine has more), torch's and numpy's kernels of a CPU with AVX2 at most, and torch's
+    scalar kernels of a CPU without vector units gives the same plan.json, byte for byte
+    (inkmotion.portable_math: the functions whose kernels round otherwise)."""
     runs = {"t1": {"INKMOTION_THREADS": "1"}, "t2": {"INKMOTION_THREADS": "2"},
             "t4": {"INKMOTION_THREADS": "4"},
-            "mkl-avx2": {"INKMOTION_THREADS": "1", "MKL_CBWR": "AVX2"}}
+            "mkl-avx2": {"INKMOTION_THREADS": "1", "MKL_CBWR": "AVX2"},
+            "avx2": {"ATEN_CPU_CAPABILITY": "avx2", "NPY_DISABLE_CPU_FEATURES": NO_AVX512},
+            "scalar": {"ATEN_CPU_CAPABILITY": "default"}}
     for name, extra in runs.items():
         subprocess.run([*INKMOTION, "run", "fit", "sample:tempt-1", "--steps", "150",
                         "--no-record", "--out", str(tmp_path / name)], env=_env(**extra),

@@ -98,11 +98,45 @@ def cosine(step: int, total: int, final: float) -> float:
 BETA1, BETA2, EPS = 0.9, 0.999, 1e-8  # torch.optim.Adam's defaults
 
 
+def adam_update(params: list[torch.Tensor], grads: list[torch.Tensor],
+                exp_avg: list[torch.Tensor], exp_avg_sq: list[torch.Tensor],
+                steps: list[torch.Tensor], lrs: list[float], one: torch.Tensor) -> None:
+    """One Adam update of ``params`` in place, parameter i at learning rate ``lrs[i]``
+    (the schedule's factor applied): the moments and step counters advance, then
+
+        m ← m + (1 − β1)·(g − m),   v ← β2·v + (1 − β2)·g²,
+        p ← p − (lr / (1 − β1ⁿ))·m / (√v / √(1 − β2ⁿ) + ε)
+
+    as ``torch.optim.Adam`` computes them, each product and sum a multi-tensor op of its
+    own. torch's fused forms of them (``lerp``, ``addcmul``, ``addcdiv``) round once
+    where this rounds twice on a CPU with vector units (a fused multiply-add) and twice on
+    one without, so their bits depended on the CPU; these ops round the same everywhere
+    (:mod:`inkmotion.portable_math`). No device read: the step counters live on the CPU.
+    """
+    with torch.no_grad():
+        torch._foreach_add_(steps, one, alpha=1.0)  # as torch does: 1 wrapped once
+        change = torch._foreach_sub(grads, exp_avg)
+        torch._foreach_mul_(change, 1 - BETA1)
+        torch._foreach_add_(exp_avg, change)
+        torch._foreach_mul_(exp_avg_sq, BETA2)
+        squares = torch._foreach_mul(grads, grads)
+        torch._foreach_mul_(squares, 1 - BETA2)
+        torch._foreach_add_(exp_avg_sq, squares)
+        counts = [float(t) for t in steps]  # CPU counters: no device read
+        step_size = [(lr / (1 - BETA1 ** n)) * -1 for lr, n in zip(lrs, counts, strict=True)]
+        denom = torch._foreach_sqrt(exp_avg_sq)
+        torch._foreach_div_(denom, [(1 - BETA2 ** n) ** 0.5 for n in counts])
+        torch._foreach_add_(denom, EPS)
+        update = torch._foreach_div(exp_avg, denom)
+        torch._foreach_mul_(update, step_size)
+        torch._foreach_add_(params, update)
+
+
 class Adam:
-    """Adam (β = 0.9, 0.999, ε = 1e-8) with one learning rate per parameter tensor: torch's
-    multi-tensor Adam step written out (:meth:`step`), the same arithmetic as
-    ``torch.optim.Adam`` (the CPU fit reproduces bit for bit), without the import of
-    ``torch._dynamo`` that the class does on first use (1.2–1.7 s per process here)."""
+    """Adam (β = 0.9, 0.999, ε = 1e-8) with one learning rate per parameter tensor
+    (:func:`adam_update`: ``torch.optim.Adam``'s arithmetic, rounded the same on every
+    CPU), without the import of ``torch._dynamo`` that the class does on first use
+    (1.2–1.7 s per process here)."""
 
     def __init__(self, groups: list[tuple[torch.Tensor, float]]) -> None:
         self.params = [p for p, _ in groups]
@@ -136,30 +170,16 @@ class Adam:
                     t.copy_(v.to(t.device))
 
     def step(self, factor: float = 1.0) -> None:
-        """One update with every learning rate scaled by ``factor`` (the schedule): torch's
-        multi-tensor Adam step (``_multi_tensor_adam``) written out, each learning rate its
-        own: the same elementwise arithmetic, per tensor, as ``torch.optim.Adam``, in a
-        dozen calls for all the tensors instead of a dozen per tensor."""
+        """One update (:func:`adam_update`) with every learning rate scaled by ``factor``
+        (the schedule), a dozen multi-tensor calls for all the tensors."""
         live = [i for i, p in enumerate(self.params) if p.grad is not None]
         if not live:
             return
-        params = [self.params[i] for i in live]
-        grads = [self.params[i].grad for i in live]
-        exp_avg = [self.exp_avg[i] for i in live]
-        exp_avg_sq = [self.exp_avg_sq[i] for i in live]
-        steps = [self.steps[i] for i in live]
-        with torch.no_grad():
-            torch._foreach_add_(steps, self._one, alpha=1.0)  # as torch does: 1 wrapped once
-            torch._foreach_lerp_(exp_avg, grads, 1 - BETA1)
-            torch._foreach_mul_(exp_avg_sq, BETA2)
-            torch._foreach_addcmul_(exp_avg_sq, grads, grads, 1 - BETA2)
-            counts = [float(t) for t in steps]  # CPU counters: no device read
-            step_size = [(self.lrs[i] * factor / (1 - BETA1 ** n)) * -1
-                         for i, n in zip(live, counts, strict=True)]
-            denom = torch._foreach_sqrt(exp_avg_sq)
-            torch._foreach_div_(denom, [(1 - BETA2 ** n) ** 0.5 for n in counts])
-            torch._foreach_add_(denom, EPS)
-            torch._foreach_addcdiv_(params, exp_avg, denom, step_size)
+        adam_update([self.params[i] for i in live],
+                    [self.params[i].grad for i in live],  # type: ignore[misc]
+                    [self.exp_avg[i] for i in live], [self.exp_avg_sq[i] for i in live],
+                    [self.steps[i] for i in live], [self.lrs[i] * factor for i in live],
+                    self._one)
 
 
 def _terms(ev: Evaluation) -> dict[str, torch.Tensor]:
@@ -372,20 +392,16 @@ class Request:
 
 
 def _adam_together(fits: list[_Leaves], factor: float) -> None:
-    """One Adam update of every fit, a parameter group of all the fits per call (torch's
-    multi-tensor Adam: the same elementwise arithmetic as each fit's own update)."""
-    from torch.optim.adam import adam
-
-    first = fits[0].adam
-    with torch.no_grad():
-        for g, lr in enumerate(first.lrs):
-            held = [(f.adam, f.adam.params[g]) for f in fits if f.adam.params[g].grad is not None]
-            if not held:
-                continue
-            adam([p for _, p in held], [p.grad for _, p in held],
-                 [a.exp_avg[g] for a, _ in held], [a.exp_avg_sq[g] for a, _ in held], [],
-                 [a.steps[g] for a, _ in held], foreach=True, amsgrad=False, beta1=0.9,
-                 beta2=0.999, lr=lr * factor, weight_decay=0.0, eps=1e-8, maximize=False)
+    """One Adam update of every fit (:func:`adam_update` over all their tensors: the same
+    elementwise arithmetic as each fit's own update)."""
+    held = [(f.adam, g) for f in fits for g, p in enumerate(f.adam.params)
+            if p.grad is not None]
+    if held:
+        adam_update([a.params[g] for a, g in held],
+                    [a.params[g].grad for a, g in held],  # type: ignore[misc]
+                    [a.exp_avg[g] for a, g in held], [a.exp_avg_sq[g] for a, g in held],
+                    [a.steps[g] for a, g in held], [a.lrs[g] * factor for a, g in held],
+                    fits[0].adam._one)
 
 
 def _clamp_together(fits: list[_Leaves], settings: OptimiserSettings) -> None:

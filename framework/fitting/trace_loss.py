@@ -67,6 +67,7 @@ import numpy as np
 import torch
 
 from inkmotion.geometry.chamfer import densify
+from inkmotion.portable_math import planar_norm
 from inkmotion.sigma_lognormal.batch import GridLayout
 
 #: px between the input points of the recall term
@@ -406,7 +407,7 @@ class TraceLoss:
         ref = self.ref
         with torch.no_grad():
             first, last = self._ranges
-            length = (ends - starts).norm(dim=1)  # (2S,) chord lengths
+            length = planar_norm(ends - starts)  # (2S,) chord lengths
             after = length.cumsum(0)
             before = after - length
             done = before - before[first]  # arc of the path before each chord

@@ -294,6 +294,66 @@ def _down(image: torch.Tensor, dim: int) -> torch.Tensor:
     return _Down.apply(image, dim)
 
 
+def _down_plain(image: torch.Tensor, dim: int) -> torch.Tensor:
+    """:class:`_Down`'s forward without a graph node (the same bits)."""
+    if image.shape[dim] >= 3 and image.numel() < GATHER_BELOW:
+        return _down_gathered(image, dim)
+    return _down_forward(image, dim)
+
+
+def _up_plain(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
+    """:class:`_Down`'s backward: its adjoint along ``dim`` of a level of ``n`` samples."""
+    if n >= 3 and grad.numel() < UP_GATHER_BELOW:
+        return _up_gathered(grad, n, dim)
+    return _down_backward(grad.contiguous(), n, dim)
+
+
+def _levels(image: torch.Tensor, levels: int) -> list[torch.Tensor]:
+    """[I_0, …, I_{levels−1}] of an image (H, W), rows down first (contiguous slices),
+    without a graph."""
+    out = [image]
+    for _ in range(levels - 1):
+        out.append(_down_plain(_down_plain(out[-1], -2), -1))
+    return out
+
+
+class _MultiscaleMSE(torch.autograd.Function):
+    """Σ_s MSE(image_s, target_s) as one graph node: the levels computed without a graph,
+    and the gradient walked back from the coarsest level, each level's
+    ``mse_loss_backward`` added to the adjoint of the level below it (:func:`_up_plain`,
+    columns then rows). Autograd on a node per pyramid step and per level took the same
+    steps: the same bits, with one node's bookkeeping instead of some thirty."""
+
+    @staticmethod
+    def forward(ctx: Any, image: torch.Tensor, levels: int,
+                *targets: torch.Tensor) -> torch.Tensor:
+        xs = _levels(image, levels)
+        total = image.new_zeros(())
+        for x, y in zip(xs, targets, strict=True):
+            total = total + F.mse_loss(x, y.to(x.dtype))
+        ctx.save_for_backward(*xs, *targets)
+        ctx.levels = levels
+        return total
+
+    @staticmethod
+    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
+        saved = ctx.saved_tensors
+        xs, ys = saved[:ctx.levels], saved[ctx.levels:]
+        mean = 1  # torch's Reduction::Mean
+        below: torch.Tensor | None = None  # the gradient arriving from the next level
+        for s in range(ctx.levels - 1, -1, -1):
+            own = torch.ops.aten.mse_loss_backward(grad, xs[s], ys[s].to(xs[s].dtype), mean)
+            if below is not None:
+                x = xs[s]
+                rows = x.shape[-2]
+                half = (rows + 1) // 2  # the rows-down intermediate's row count
+                mid = _up_plain(below, x.shape[-1], -1)  # (half, W_s)
+                assert mid.shape[-2] == half, (mid.shape, half)
+                own = own + _up_plain(mid, rows, -2)
+            below = own
+        return (below, None, *(None for _ in ys))
+
+
 def prepare_multiscale_mse(
     target: torch.Tensor, levels: int | None = None
 ) -> Callable[[torch.Tensor], torch.Tensor]:
@@ -306,23 +366,12 @@ def prepare_multiscale_mse(
         levels = default_levels(h, w)
     assert levels >= 1, levels
     target = target.detach().reshape(h, w)
-
-    def levels_of(image: torch.Tensor) -> list[torch.Tensor]:
-        out = [image]
-        for _ in range(levels - 1):
-            out.append(_down(_down(out[-1], -2), -1))  # rows first: contiguous slices
-        return out
-
     with torch.no_grad():
-        target_levels = levels_of(target)
+        target_levels = _levels(target, levels)
 
     def loss(rendered: torch.Tensor) -> torch.Tensor:
         assert rendered.shape[-2:] == (h, w), (rendered.shape, target.shape)
-        image = rendered.reshape(h, w)
-        total = image.new_zeros(())
-        for x, y in zip(levels_of(image), target_levels, strict=True):
-            total = total + F.mse_loss(x, y.to(x.dtype))
-        return total
+        return _MultiscaleMSE.apply(rendered.reshape(h, w), levels, *target_levels)
 
     loss.target, loss.levels = target, levels  # type: ignore[attr-defined]
     loss.stack = stack_multiscale_mse  # type: ignore[attr-defined]  # a batched fit's

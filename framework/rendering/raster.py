@@ -45,6 +45,8 @@ from typing import Any
 
 import torch
 
+from inkmotion.portable_math import planar_norm
+
 #: target length (px) of the straight pieces a cubic is cut into
 PIECE_LENGTH = 3.0
 #: largest distance (px) allowed between a cubic and its chords
@@ -174,8 +176,8 @@ def piece_counts(ctrl: torch.Tensor, radii: torch.Tensor, height: int, width: in
     with torch.no_grad():
         ctrl, radii = _finite(ctrl[..., :2]), _finite(radii)  # (S, 4, 2), (S,)
         legs = ctrl[:, 1:] - ctrl[:, :-1]  # (S, 3, 2)
-        poly = legs.norm(dim=-1).sum(-1)  # (S,)
-        bend = (legs[:, 1:] - legs[:, :-1]).norm(dim=-1).amax(-1)  # (S,)
+        poly = planar_norm(legs).sum(-1)  # (S,)
+        bend = planar_norm(legs[:, 1:] - legs[:, :-1]).amax(-1)  # (S,)
         n = torch.maximum(torch.ceil(poly / PIECE_LENGTH),
                           torch.ceil(torch.sqrt(0.75 * bend / FLATNESS))).clamp(min=1)
         n = n.clamp(max=piece_cap(height, width)).long()

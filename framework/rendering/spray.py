@@ -31,6 +31,8 @@ import math
 
 import torch
 
+from inkmotion.portable_math import planar_norm
+
 #: sample points per cubic segment
 PER_SEGMENT = 8
 #: σ ∝ (v_ref / v)^β
@@ -68,7 +70,7 @@ def splat_parameters(segments: torch.Tensor, widths: torch.Tensor | float,
     else:
         w = torch.as_tensor(widths, dtype=ctrl.dtype, device=ctrl.device)
         sigma0 = (w.expand(s) / 2).clamp(min=0.05)[:, None].expand(s, k)
-    speed = deriv[..., :2].norm(dim=-1) + 1e-6  # (S, K) px per segment time
+    speed = planar_norm(deriv) + 1e-6  # (S, K) px per segment time
     v_ref = speed.median()  # differentiable too (a median follows its element)
     spread = (v_ref / speed).pow(spread_exponent).clamp(1.0 / spread_cap, spread_cap)
     sigma = sigma0 * spread

@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING
 
 import torch
 
+from inkmotion.portable_math import expm1, log1p
+
 #: the optimiser's clamps (the authors' defaults); the renderer and kinematics plan
 #: their static sizes from the same bounds
 DELTA_T_RANGE = (0.1, 0.9)
@@ -25,9 +27,10 @@ if TYPE_CHECKING:
 
 
 def sigma_mu(ac: torch.Tensor, T: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Lognormal (σ, μ) from shape Ac ∈ (0, 1) and ±3σ duration T, both (M,)."""
-    sigma = torch.sqrt(-torch.log1p(-ac))
-    mu = 3.0 * sigma - torch.log(torch.expm1(6.0 * sigma) / T)
+    """Lognormal (σ, μ) from shape Ac ∈ (0, 1) and ±3σ duration T, both (M,), with
+    :mod:`inkmotion.portable_math`'s ln(1 + x) and e^x − 1 (the same bits on every CPU)."""
+    sigma = torch.sqrt(-log1p(-ac))
+    mu = 3.0 * sigma - torch.log(expm1(6.0 * sigma) / T)
     return sigma, mu
 
 

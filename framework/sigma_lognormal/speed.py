@@ -14,6 +14,7 @@ import math
 
 import torch
 
+from inkmotion.portable_math import planar_norm
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.kinematics import EPS, kinematics
 from inkmotion.sigma_lognormal.plan import MotorPlan
@@ -31,7 +32,7 @@ def lognormal_speeds(plan: MotorPlan, t: torch.Tensor) -> torch.Tensor:
     z = (torch.log(phi) - mu[:, None]) / sigma[:, None]
     lam = torch.exp(-0.5 * z * z) / (sigma[:, None] * _SQRT2PI * phi)
     h = 1.0 / torch.sinc(batch.delta / (2.0 * math.pi))  # (m,)
-    return lam * (h * torch.linalg.vector_norm(d, dim=1))[:, None]
+    return lam * (h * planar_norm(d))[:, None]
 
 
 def speed_profile(plan: MotorPlan, t: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -41,4 +42,4 @@ def speed_profile(plan: MotorPlan, t: torch.Tensor) -> tuple[torch.Tensor, torch
     """
     t = torch.as_tensor(t, dtype=plan.points.dtype, device=plan.points.device).reshape(-1)
     v = kinematics(plan, t).velocities[:, :2]
-    return torch.linalg.vector_norm(v, dim=1), lognormal_speeds(plan, t)
+    return planar_norm(v), lognormal_speeds(plan, t)
