@@ -456,8 +456,9 @@ def unlike_the_record(job_json: dict[str, Any], spec: JobSpec) -> list[str]:
         how = (f" (ATEN_CPU_CAPABILITY={was.lower()} runs the recorded path where the CPU "
                "has it)" if was in ("AVX512", "AVX2", "DEFAULT") else "")
         said.append(f"this job ran on torch's {was} CPU code path and this machine runs "
-                    f"{now}, whose kernels round some functions differently, so the plan's "
-                    f"last bits may differ{how}")
+                    f"{now}: a fit of a drawing takes the same steps on both, but a CLIP "
+                    f"model's, a picture tracer's or a plugin's kernels may round "
+                    f"differently, so the result's last bits may differ{how}")
     return said
 
 
@@ -474,7 +475,8 @@ def _on_the_cpu(spec: JobSpec) -> bool:
 def machine() -> dict[str, Any]:
     """What of this machine a CPU result depends on beyond the thread count: torch's CPU
     code path (``ATEN_CPU_CAPABILITY``: its vector kernels round some functions
-    differently, so the last bits of a fit, and rarely a plan edit, follow it)."""
+    differently; a fit of a drawing avoids them, :mod:`inkmotion.portable_math`, but a
+    CLIP model's products, for one, follow it)."""
     import torch
 
     try:
