@@ -108,10 +108,11 @@ def adam_update(params: list[torch.Tensor], grads: list[torch.Tensor],
         p ← p − (lr / (1 − β1ⁿ))·m / (√v / √(1 − β2ⁿ) + ε)
 
     as ``torch.optim.Adam`` computes them, each product and sum a multi-tensor op of its
-    own. torch's fused forms of them (``lerp``, ``addcmul``, ``addcdiv``) round once
-    where this rounds twice on a CPU with vector units (a fused multiply-add) and twice on
-    one without, so their bits depended on the CPU; these ops round the same everywhere
-    (:mod:`inkmotion.portable_math`). No device read: the step counters live on the CPU.
+    own, rounded on its own. torch's fused forms (``lerp``, ``addcmul``, ``addcdiv``)
+    round a product and a sum once (a fused multiply-add) in their vector kernels and
+    twice in their scalar ones, so their bits depended on the CPU; these round alike on
+    every CPU (:mod:`inkmotion.portable_math`). No device read: the step counters live on
+    the CPU.
     """
     with torch.no_grad():
         torch._foreach_add_(steps, one, alpha=1.0)  # as torch does: 1 wrapped once
