@@ -1,11 +1,12 @@
 """Fits from pictures against the true trace: recorded drawings rendered as a scan would
 see them, fitted from the picture alone, and scored against the recording.
 
-``python -m inkmotion.benchmarks.pictures OUT SOURCE... [--steps N]`` renders each source
-at every :data:`SCANS` setting (``--scan NAME`` for some, or for the pencil sketches on
-plain, ruled and squared paper and the photo of a page on a desk of :data:`PAPERS`),
-runs ``inkmotion run fit`` on the picture (a separate process, as a user would) and
-prints a table; ``OUT/pictures.json`` holds every figure.
+``python -m inkmotion.benchmarks.pictures OUT SOURCE... [--steps N] [--fit-option=OPT]``
+renders each source at every :data:`SCANS` setting (``--scan NAME`` for some, or for the
+pencil sketches on plain, ruled and squared paper and the photo of a page on a desk of
+:data:`PAPERS`), runs ``inkmotion run fit`` on the picture (a separate process, as a user
+would; ``--fit-option`` adds an option of its own to every fit) and prints a table;
+``OUT/pictures.json`` holds every figure.
 
 Scores (fitted motion against the true trace, both on the fit's canvas):
 
@@ -210,8 +211,10 @@ def direction_and_order(truth: list[np.ndarray], motion: list[np.ndarray]
     return (same / total if total else float("nan")), order
 
 
-def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
-    """Render, fit and score one source at one setting."""
+def run_one(source: str, scan: Scan, out: Path, steps: int | None,
+            options: tuple[str, ...] = ()) -> dict:
+    """Render, fit and score one source at one setting (``options``: more options of
+    ``inkmotion run fit``, e.g. ``("--lambda", "80")``)."""
     import cv2
 
     from inkmotion.geometry.chamfer import chamfer
@@ -231,6 +234,7 @@ def run_one(source: str, scan: Scan, out: Path, steps: int | None) -> dict:
         cmd += ["--steps", str(steps)]
     if scan.varying:
         cmd.append("--varying-width")
+    cmd += options
     start = time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - start
@@ -274,6 +278,9 @@ def main(argv: list[str] | None = None) -> None:
                         help="only these settings (names; also the pencil and ruled-paper "
                              "ones, which the default set leaves out)")
     parser.add_argument("--varying", action="store_true", help="fit --varying-width too")
+    parser.add_argument("--fit-option", action="append", default=[], metavar="OPTION",
+                        help="an option of inkmotion run fit for every fit, repeatable, "
+                             "e.g. --fit-option=--lambda=80")
     args = parser.parse_args(argv)
     scans = [s for s in SCANS if not args.scan or s.name in args.scan]
     scans += [s for s in PAPERS if args.scan and s.name in args.scan]
@@ -282,7 +289,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = []
     for source in args.sources:
         for scan in scans:
-            row = run_one(source, scan, args.out, args.steps)
+            row = run_one(source, scan, args.out, args.steps, tuple(args.fit_option))
             rows.append(row)
             print(dumps(row), flush=True)
             (args.out / "pictures.json").write_text(dumps(rows, indent=1))
