@@ -43,6 +43,9 @@ def log1p(x: torch.Tensor) -> torch.Tensor:
 
 def planar_norm(v: torch.Tensor) -> torch.Tensor:
     """√(x² + y²) of the last axis's first two entries (..., ≥2) → (...): the Euclidean
-    length of a plane vector, as an elementwise sum of two squares."""
+    length of a plane vector, as an elementwise sum of two squares; at the zero vector
+    its gradient is 0, as ``torch.linalg.vector_norm``'s (not √'s infinite slope)."""
     x, y = v[..., 0], v[..., 1]
-    return torch.sqrt(x * x + y * y)
+    squares = x * x + y * y
+    moving = squares > 0
+    return torch.sqrt(torch.where(moving, squares, 1.0)) * moving

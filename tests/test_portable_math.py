@@ -54,6 +54,14 @@ def test_gradients_match_their_derivatives() -> None:
     assert torch.allclose(planar_norm(v), v.norm(dim=-1))
 
 
+def test_the_length_of_a_zero_vector_has_a_zero_gradient() -> None:
+    """A stationary sample (a dot, a pause) must not send NaN into a fit's gradient."""
+    v = torch.tensor([[0.0, 0.0], [3.0, 4.0]], requires_grad=True)
+    planar_norm(v).sum().backward()
+    assert planar_norm(v).tolist() == [0.0, 5.0]
+    assert v.grad.tolist() == [[0.0, 0.0], [0.6000000238418579, 0.800000011920929]]
+
+
 _SCRIPT = """
 import hashlib, torch
 from inkmotion.fitting.optimise import Adam
