@@ -25,7 +25,7 @@ def expm1(x: torch.Tensor) -> torch.Tensor:
     less = u - 1.0
     log_u = torch.log(u)
     flat = less == 0  # u rounded to 1: e^x − 1 is x to working precision
-    safe = torch.where(flat, torch.ones_like(log_u), log_u)
+    safe = torch.where(flat, 1.0, log_u)
     out = torch.where(flat, x, less * x / safe)
     return torch.where(u.isinf() | (u == 0), less, out)  # e^x − 1 = ∞, or −1 at x = −∞
 
@@ -36,7 +36,7 @@ def log1p(x: torch.Tensor) -> torch.Tensor:
     u = 1.0 + x
     less = u - 1.0
     flat = less == 0
-    safe = torch.where(flat, torch.ones_like(less), less)
+    safe = torch.where(flat, 1.0, less)
     out = torch.where(flat, x, torch.log(u) * x / safe)
     return torch.where(u.isinf(), u, out)
 

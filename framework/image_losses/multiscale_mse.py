@@ -270,39 +270,17 @@ def _up_gathered(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
     return _gathered_sums(padded, dim, folds)
 
 
-class _Down(torch.autograd.Function):
-    """:func:`_down_forward` with :func:`_down_backward` as its gradient; a small image by
-    their gathered forms (:data:`GATHER_BELOW`), the same bits."""
-
-    @staticmethod
-    def forward(ctx: Any, image: torch.Tensor, dim: int) -> torch.Tensor:
-        n = image.shape[dim]
-        ctx.n, ctx.dim = n, dim
-        if n >= 3 and image.numel() < GATHER_BELOW:
-            return _down_gathered(image, dim)
-        return _down_forward(image, dim)
-
-    @staticmethod
-    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None]:
-        if ctx.n >= 3 and grad.numel() < UP_GATHER_BELOW:
-            return _up_gathered(grad, ctx.n, ctx.dim), None
-        return _down_backward(grad.contiguous(), ctx.n, ctx.dim), None
-
-
 def _down(image: torch.Tensor, dim: int) -> torch.Tensor:
-    """One pyramid level down along ``dim`` (module docstring: determinism)."""
-    return _Down.apply(image, dim)
-
-
-def _down_plain(image: torch.Tensor, dim: int) -> torch.Tensor:
-    """:class:`_Down`'s forward without a graph node (the same bits)."""
+    """One pyramid level down along ``dim`` (module docstring: determinism): a small image
+    by the gathered form (:data:`GATHER_BELOW`), the same bits."""
     if image.shape[dim] >= 3 and image.numel() < GATHER_BELOW:
         return _down_gathered(image, dim)
     return _down_forward(image, dim)
 
 
-def _up_plain(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
-    """:class:`_Down`'s backward: its adjoint along ``dim`` of a level of ``n`` samples."""
+def _up(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
+    """The adjoint of :func:`_down` along ``dim`` of a level of ``n`` samples (a small
+    gradient by the gathered form, :data:`UP_GATHER_BELOW`), the same bits."""
     if n >= 3 and grad.numel() < UP_GATHER_BELOW:
         return _up_gathered(grad, n, dim)
     return _down_backward(grad.contiguous(), n, dim)
@@ -313,14 +291,14 @@ def _levels(image: torch.Tensor, levels: int) -> list[torch.Tensor]:
     without a graph."""
     out = [image]
     for _ in range(levels - 1):
-        out.append(_down_plain(_down_plain(out[-1], -2), -1))
+        out.append(_down(_down(out[-1], -2), -1))
     return out
 
 
 class _MultiscaleMSE(torch.autograd.Function):
     """Σ_s MSE(image_s, target_s) as one graph node: the levels computed without a graph,
     and the gradient walked back from the coarsest level, each level's
-    ``mse_loss_backward`` added to the adjoint of the level below it (:func:`_up_plain`,
+    ``mse_loss_backward`` added to the adjoint of the level below it (:func:`_up`,
     columns then rows). Autograd on a node per pyramid step and per level took the same
     steps: the same bits, with one node's bookkeeping instead of some thirty."""
 
@@ -341,15 +319,10 @@ class _MultiscaleMSE(torch.autograd.Function):
         xs, ys = saved[:ctx.levels], saved[ctx.levels:]
         mean = 1  # torch's Reduction::Mean
         below: torch.Tensor | None = None  # the gradient arriving from the next level
-        for s in range(ctx.levels - 1, -1, -1):
-            own = torch.ops.aten.mse_loss_backward(grad, xs[s], ys[s].to(xs[s].dtype), mean)
-            if below is not None:
-                x = xs[s]
-                rows = x.shape[-2]
-                half = (rows + 1) // 2  # the rows-down intermediate's row count
-                mid = _up_plain(below, x.shape[-1], -1)  # (half, W_s)
-                assert mid.shape[-2] == half, (mid.shape, half)
-                own = own + _up_plain(mid, rows, -2)
+        for x, y in zip(reversed(xs), reversed(ys), strict=True):
+            own = torch.ops.aten.mse_loss_backward(grad, x, y.to(x.dtype), mean)
+            if below is not None:  # columns were taken down last: they come back first
+                own = own + _up(_up(below, x.shape[-1], -1), x.shape[-2], -2)
             below = own
         return (below, None, *(None for _ in ys))
 
