@@ -18,25 +18,29 @@ from __future__ import annotations
 
 import torch
 
+from inkmotion.scalar_tensors import scalar_tensors
+
 
 def expm1(x: torch.Tensor) -> torch.Tensor:
     """e^x − 1, accurate near 0 (Kahan: (u − 1)·x / ln u with u = e^x; x where u = 1)."""
+    one, zero = scalar_tensors(x, 1.0, 0.0)
     u = torch.exp(x)
-    less = u - 1.0
+    less = u - one
     log_u = torch.log(u)
-    flat = less == 0  # u rounded to 1: e^x − 1 is x to working precision
-    safe = torch.where(flat, 1.0, log_u)
+    flat = less == zero  # u rounded to 1: e^x − 1 is x to working precision
+    safe = torch.where(flat, one, log_u)
     out = torch.where(flat, x, less * x / safe)
-    return torch.where(u.isinf() | (u == 0), less, out)  # e^x − 1 = ∞, or −1 at x = −∞
+    return torch.where(u.isinf() | (u == zero), less, out)  # e^x − 1 = ∞, or −1 at x = −∞
 
 
 def log1p(x: torch.Tensor) -> torch.Tensor:
     """ln(1 + x), accurate near 0 (Kahan: ln u · x / (u − 1) with u = 1 + x; x where
     u = 1)."""
-    u = 1.0 + x
-    less = u - 1.0
-    flat = less == 0
-    safe = torch.where(flat, 1.0, less)
+    one, zero = scalar_tensors(x, 1.0, 0.0)
+    u = one + x
+    less = u - one
+    flat = less == zero
+    safe = torch.where(flat, one, less)
     out = torch.where(flat, x, torch.log(u) * x / safe)
     return torch.where(u.isinf(), u, out)
 
@@ -46,6 +50,7 @@ def planar_norm(v: torch.Tensor) -> torch.Tensor:
     length of a plane vector, as an elementwise sum of two squares; at the zero vector
     its gradient is 0, as ``torch.linalg.vector_norm``'s (not √'s infinite slope)."""
     x, y = v[..., 0], v[..., 1]
+    one, zero = scalar_tensors(v, 1.0, 0.0)
     squares = x * x + y * y
-    moving = squares > 0
-    return torch.sqrt(torch.where(moving, squares, 1.0)) * moving
+    moving = squares > zero
+    return torch.sqrt(torch.where(moving, squares, one)) * moving

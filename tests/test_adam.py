@@ -39,3 +39,18 @@ def test_a_tensor_without_a_gradient_is_left_as_it_is() -> None:
     adam.step()
     assert torch.equal(b, torch.ones(2)) and not torch.equal(a, torch.ones(3))
     assert float(adam.steps[1]) == 0.0 and float(adam.steps[0]) == 1.0
+
+
+def test_the_shapes_are_a_leaf_of_the_fit_only_when_they_learn() -> None:
+    """lr_ac = 0 (the default): Ac takes no gradient (none is used; it cost a fifth of the
+    kinematics' backward) and Adam holds no moments of it; lr_ac > 0: Adam updates it."""
+    from inkmotion.fitting.optimise import OptimiserSettings, _Leaves
+    from inkmotion.sigma_lognormal.plan import MotorPlan
+
+    plan = MotorPlan.from_points(torch.tensor([[0.0, 0.0], [40.0, 5.0], [60.0, 50.0]]))
+    for lr_ac, learns in ((0.0, False), (0.01, True)):
+        fit = _Leaves([plan], OptimiserSettings(10, lr_points=2.0, lr_delta_t=0.05,
+                                                lr_delta=0.1, lr_ac=lr_ac, lr_final=0.3))
+        assert fit.leaves["ac"].requires_grad is learns
+        assert fit.leaves["points"].requires_grad and fit.leaves["delta_t"].requires_grad
+        assert any(p is fit.leaves["ac"] for p in fit.adam.params) is learns

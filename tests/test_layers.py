@@ -54,7 +54,7 @@ OUTSIDE = {"inkmotion", "inkmotion.__main__"}
 PROTOCOLS = "inkmotion.plugin_host.protocols"
 
 FOUNDATION = ("errors", "json_files", "settings", "rng", "lazy", "events", "devices",
-              "browser", "portable_math")
+              "browser", "portable_math", "scalar_tensors")
 ENGINES = ("sigma_lognormal", "geometry", "inputs", "tracing", "rendering", "image_losses",
            "fitting", "clip", "saliency", "initialisers", "images", "outputs", "robot", "plotter",
            "evaluation", "recording", "profiling", "store", "samples", "speed_extrema")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import torch
 
+from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 
 
@@ -37,10 +38,11 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
     dev = (batch.delta_t - mean[path]) * used
     var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom
+    weight = scalar_tensors(var, w_sigma)[0]  # the same bits, fewer casts
     if over == "drawing":
-        return t_end.sum() / m.sum() + w_sigma * var.mean()
+        return t_end.sum() / m.sum() + weight * var.mean()
     assert over == "path", over
-    return (t_end / m + w_sigma * var).mean()
+    return (t_end / m + weight * var).mean()
 
 
 def canvas_cost(points: torch.Tensor, width: float, height: float) -> torch.Tensor:

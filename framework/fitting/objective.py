@@ -26,6 +26,7 @@ from inkmotion.errors import InkmotionError
 from inkmotion.fitting.losses import canvas_cost, smoothing_cost
 from inkmotion.geometry.bezier import hermite_segments
 from inkmotion.plugin_host.protocols import BoundLoss, Renderer, RenderFunction
+from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.kinematics import evaluate_kinematics, plan_window, uniform_times
 from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
@@ -112,10 +113,11 @@ class Objective:
     def weighted(self, terms: dict[str, torch.Tensor], image: torch.Tensor) -> torch.Tensor:
         """λ·L_smooth + w_I·Σ L_I + w_c·canvas term (+ w_trace·L_trace when ``terms`` has
         it), from the terms and the image losses' sum ``image``."""
-        total = (self.p.lambda_smooth * terms["smooth"] + self.p.w_image * image
-                 + self.p.w_canvas * terms["canvas"])
+        lam, w_image, w_canvas, w_trace = scalar_tensors(
+            image, self.p.lambda_smooth, self.p.w_image, self.p.w_canvas, self.p.w_trace)
+        total = lam * terms["smooth"] + w_image * image + w_canvas * terms["canvas"]
         if "trace" in terms:
-            total = total + self.p.w_trace * terms["trace"]
+            total = total + w_trace * terms["trace"]
         return total
 
     def _motion(self, batch: PlanBatch) -> tuple[GridLayout, torch.Tensor, Any, torch.Tensor]:

@@ -238,7 +238,9 @@ class _Leaves:
     def __init__(self, plans: list[MotorPlan], settings: OptimiserSettings) -> None:
         self.src = src = PlanBatch.from_plans([p.detached() for p in plans])
         self.three = three = src.points.shape[1] == 3  # radius coordinate (2.5D)
-        leaves = {k: getattr(src, k).clone().requires_grad_(True)
+        # the shapes Ac are a leaf only when they learn (lr_ac > 0): a gradient nobody
+        # uses took a fifth of the kinematics' backward (σ, μ and the onsets)
+        leaves = {k: getattr(src, k).clone().requires_grad_(k != "ac" or settings.lr_ac > 0)
                   for k in ("points", "delta_t", "delta", "ac")}
         if three:
             assert settings.radius_range is not None, "a 3-D plan needs radius_range"

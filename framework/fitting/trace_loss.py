@@ -68,6 +68,7 @@ import torch
 
 from inkmotion.geometry.chamfer import densify
 from inkmotion.portable_math import planar_norm
+from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout
 
 #: px between the input points of the recall term
@@ -454,7 +455,8 @@ class TraceLoss:
         if layout is not self._layout:
             self._build(layout)
         p0, p1, p2, p3 = (segments[:, k, :2] for k in range(4))  # (S, 2) each
-        half = 0.125 * (p0 + 3.0 * p1 + 3.0 * p2 + p3)  # B(½)
+        eighth, three = scalar_tensors(segments, 0.125, 3.0)
+        half = eighth * (p0 + three * p1 + three * p2 + p3)  # B(½)
         starts = torch.stack((p0, half), 1).reshape(-1, 2)  # (2S, 2) samples F
         ends = torch.stack((half, p3), 1).reshape(-1, 2)  # chords C: start → end
         kept = self._near
@@ -475,7 +477,7 @@ class TraceLoss:
         f = starts[:, None, :].expand(-1, w, -1).reshape(-1, 2)
         precision = _point_segment_d2(f, ref.seg_a.index_select(0, j),
                                       ref.seg_b.index_select(0, j))
-        s2 = self.scale * self.scale
+        s2, scale = scalar_tensors(segments, self.scale * self.scale, self.scale)
         recall, precision = recall.view(-1, w).amin(1), precision.view(-1, w).amin(1)
         if self.tolerance > 0:  # squared distances beyond the tolerance band
             recall = self._beyond(recall, self.tolerance)
@@ -483,7 +485,7 @@ class TraceLoss:
         worst = None
         if self.worst > 0:  # ρ(e) / T of every recall point (module docstring)
             excess = self._beyond(recall, self.worst_from)
-            worst = ((excess + s2).sqrt() - self.scale) / self.worst_scale
+            worst = ((excess + s2).sqrt() - scale) / self.worst_scale
         recall = (recall + s2).sqrt()  # (K,) ρ + s
         precision = (precision + s2).sqrt()  # (2S,) ρ + s
         if self._union is not None:  # each drawing's own means (B,)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import torch
 
+from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.kinematics import batch_kinematics, uniform_times
 from inkmotion.sigma_lognormal.plan import MotorPlan
@@ -25,7 +26,7 @@ def hermite_segments(
     (S = N − P: no segment crosses a pen lift)."""
     a = layout.segment_start  # (S,)
     b = a + 1
-    h = (dt.index_select(0, layout.segment_path) / 3.0)[:, None]  # (S, 1)
+    h = (dt.index_select(0, layout.segment_path) / scalar_tensors(dt, 3.0)[0])[:, None]
     # each end gathered once per use: one gather shared by two uses would add the
     # positions' gradients up in another order (other bits, other plans)
     return torch.stack(

@@ -46,6 +46,7 @@ from typing import Any
 import torch
 
 from inkmotion.portable_math import planar_norm
+from inkmotion.scalar_tensors import scalar_tensors
 
 #: target length (px) of the straight pieces a cubic is cut into
 PIECE_LENGTH = 3.0
@@ -281,11 +282,12 @@ def _excess(dx: torch.Tensor, dy: torch.Tensor, abx: torch.Tensor, aby: torch.Te
     d = |ap − t·ab|, r(t) = r + t·dr (dr = r_b − r_a, None for a constant radius). The
     coverage is its clamp to [0, 1]. Elementwise (any broadcastable shapes), so the dense
     patches and the few pixels the backward pass needs get the same bits."""
+    eps, half = scalar_tensors(dx, _EPS, 0.5)
     t = ((dx * abx + dy * aby) * inv_len2).clamp(0, 1)
     ex, ey = dx - t * abx, dy - t * aby
-    d = torch.sqrt(ex * ex + ey * ey + _EPS)
+    d = torch.sqrt(ex * ex + ey * ey + eps)
     rad = r if dr is None else r + t * dr
-    return rad + 0.5 - d
+    return rad + half - d
 
 
 class _MaxUnion(torch.autograd.Function):
@@ -354,11 +356,12 @@ def capsule_coverage(
         t is not None and t.requires_grad for t in (a, b, r, r_end))
 
     ab = b - a  # (N, 2)
-    inv_len2 = 1 / (ab * ab).sum(1).clamp(min=1e-12)  # (N,)
+    inv_len2 = torch.reciprocal((ab * ab).sum(1).clamp(min=1e-12))  # (N,)
     dr = None if r_end is None else r_end - r  # (N,)
     with torch.no_grad() if sparse else contextlib.nullcontext():
-        dx = (xs.to(dtype) + 0.5 - a[:, :1])[:, None, :]  # (N, 1, kx)
-        dy = (ys.to(dtype) + 0.5 - a[:, 1:])[:, :, None]  # (N, ky, 1)
+        half = scalar_tensors(a, 0.5)[0]
+        dx = (xs.to(dtype) + half - a[:, :1])[:, None, :]  # (N, 1, kx)
+        dy = (ys.to(dtype) + half - a[:, 1:])[:, :, None]  # (N, ky, 1)
         at = (slice(None), None, None)  # (N, 1, 1)
         x = _excess(dx, dy, ab[at + (0,)], ab[at + (1,)], inv_len2[at], r[at],
                     None if dr is None else dr[at])  # (N, ky, kx)
@@ -381,8 +384,9 @@ def capsule_coverage(
             y_at = ys.reshape(-1).index_select(0, piece * ky + within // kx).to(dtype)
         # index_select, not a[piece, 0]: a third of the cost per gather here; one column at
         # a time, as before, so the gradients add up in the same order (the same bits)
-        x_rim = _excess(x_at + 0.5 - a[:, 0].index_select(0, piece),
-                        y_at + 0.5 - a[:, 1].index_select(0, piece),
+        half = scalar_tensors(a, 0.5)[0]
+        x_rim = _excess(x_at + half - a[:, 0].index_select(0, piece),
+                        y_at + half - a[:, 1].index_select(0, piece),
                         ab[:, 0].index_select(0, piece), ab[:, 1].index_select(0, piece),
                         inv_len2.index_select(0, piece),
                         r.index_select(0, piece),

@@ -32,6 +32,7 @@ from typing import NamedTuple
 
 import torch
 
+from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
@@ -65,24 +66,27 @@ def submovement_terms(
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
     """Displacement x_i, velocity and acceleration of each sub-movement at τ: (M, K, D) each
     (the acceleration None without ``accelerations``: a fit's step needs x and v only)."""
-    phi = torch.relu(tau - EPS) + EPS
+    # the numbers as 0-d tensors (inkmotion.scalar_tensors): the same bits, fewer casts
+    eps, minus_half, sqrt2pi, sqrt2, one, half, two_pi = scalar_tensors(
+        tau, EPS, -0.5, _SQRT2PI, _SQRT2, 1.0, 0.5, 2.0 * math.pi)
+    phi = torch.relu(tau - eps) + eps
     log_phi = torch.log(phi)
     sig, mu_, dl = sigma[:, None], mu[:, None], delta[:, None]
     z = (log_phi - mu_) / sig  # (M, K)
-    lam = torch.exp(-0.5 * z * z) / (sig * _SQRT2PI * phi)
-    w = 0.5 * (1.0 + torch.erf(z / _SQRT2))
-    h = 1.0 / torch.sinc(dl / (2.0 * math.pi))  # (M, 1)
+    lam = torch.exp(minus_half * z * z) / (sig * sqrt2pi * phi)
+    w = half * (one + torch.erf(z / sqrt2))
+    h = torch.reciprocal(torch.sinc(dl / two_pi))  # (M, 1)
 
     planar = d[:, :2]
-    rot_theta = _rotate(dl * (w - 0.5), planar)  # R[θ] d
-    chord = (h * w * torch.sinc(dl * w / (2.0 * math.pi)))[..., None]
-    x = chord * _rotate(dl * (w - 1.0) * 0.5, planar)
+    rot_theta = _rotate(dl * (w - half), planar)  # R[θ] d
+    chord = (h * w * torch.sinc(dl * w / two_pi))[..., None]
+    x = chord * _rotate(dl * (w - one) * half, planar)
     v = (lam * h)[..., None] * rot_theta
     a = None
     if accelerations:
         lam_dot = lam * (mu_ - sig * sig - log_phi) / (sig * sig * phi)
         perp = torch.stack((-planar[:, 1], planar[:, 0]), dim=-1)
-        rot_theta_perp = _rotate(dl * (w - 0.5), perp)  # Ṙ[θ] d = R[θ] d⊥
+        rot_theta_perp = _rotate(dl * (w - half), perp)  # Ṙ[θ] d = R[θ] d⊥
         a = ((lam_dot * h)[..., None] * rot_theta
              + (dl * lam * lam * h)[..., None] * rot_theta_perp)
     if d.shape[1] == 3:

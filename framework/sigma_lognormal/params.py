@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import torch
 
 from inkmotion.portable_math import expm1, log1p
+from inkmotion.scalar_tensors import scalar_tensors
 
 #: the optimiser's clamps (the authors' defaults); the renderer and kinematics plan
 #: their static sizes from the same bounds
@@ -29,8 +30,9 @@ if TYPE_CHECKING:
 def sigma_mu(ac: torch.Tensor, T: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Lognormal (σ, μ) from shape Ac ∈ (0, 1) and ±3σ duration T, both (M,), with
     :mod:`inkmotion.portable_math`'s ln(1 + x) and e^x − 1 (the same bits on every CPU)."""
+    three, six = scalar_tensors(ac, 3.0, 6.0)
     sigma = torch.sqrt(-log1p(-ac))
-    mu = 3.0 * sigma - torch.log(expm1(6.0 * sigma) / T)
+    mu = three * sigma - torch.log(expm1(six * sigma) / T)
     return sigma, mu
 
 
@@ -53,7 +55,7 @@ def onsets(
     path's first entry (gathered at ``layout.move_first``): no Python loop, no
     data-dependent shape.
     """
-    lead = torch.exp(mu - 3.0 * sigma)  # (M,) from t0 to the window's opening
+    lead = torch.exp(mu - scalar_tensors(mu, 3.0)[0] * sigma)  # (M,) from t0 to the opening
     before = torch.cat([lead[:1], lead[:-1]])  # the previous sub-movement's (unused first)
     steps = torch.where(layout.first, -lead, delta_t * T + (before - lead))  # (M,)
     total = torch.cumsum(steps, dim=0)
@@ -64,5 +66,5 @@ def end_times(t0: torch.Tensor, sigma: torch.Tensor, mu: torch.Tensor,
               layout: GridLayout) -> torch.Tensor:
     """T_end per path (P,): t0_m + e^{μ_m + 3σ_m} of each path's last sub-movement."""
     last = layout.last_move  # (P,)
-    return t0.index_select(0, last) + torch.exp(mu.index_select(0, last)
-                                               + 3.0 * sigma.index_select(0, last))
+    return t0.index_select(0, last) + torch.exp(
+        mu.index_select(0, last) + scalar_tensors(mu, 3.0)[0] * sigma.index_select(0, last))
