@@ -210,7 +210,10 @@ def evaluate_kinematics(
             # a long plan's block of times (kinematics' chunk) meets few of its thousands
             moving = torch.nonzero(hi > lo).squeeze(1)
             k = int((hi - lo).max()) if lo.numel() else 0
-            first, ends = lo.index_select(0, moving), hi.index_select(0, moving)
+            if moving.shape[0] == lo.shape[0]:  # all of them (a fit's grid): no gathers
+                moving = None
+            first, ends = (lo, hi) if moving is None else (lo.index_select(0, moving),
+                                                           hi.index_select(0, moving))
         else:
             k = layout.window
             overflow = (hi - lo > window_alarm(k)).any()
