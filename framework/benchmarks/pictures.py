@@ -1,11 +1,12 @@
 """Fits from pictures against the true trace: recorded drawings rendered as a scan would
 see them, fitted from the picture alone, and scored against the recording.
 
-``python -m inkmotion.benchmarks.pictures OUT SOURCE... [--steps N] [--fit-option=OPT]``
-renders each source at every :data:`SCANS` setting (``--scan NAME`` for some, or for the
-pencil sketches on plain, ruled and squared paper and the photo of a page on a desk of
-:data:`PAPERS`), runs ``inkmotion run fit`` on the picture (a separate process, as a user
-would; ``--fit-option`` adds an option of its own to every fit) and prints a table;
+``python -m inkmotion.benchmarks.pictures OUT SOURCE...`` (``--steps N``,
+``--fit-option=OPT``, ``--jobs N`` fits at once) renders each source at every
+:data:`SCANS` setting (``--scan NAME`` for some, or for the pencil sketches on plain,
+ruled and squared paper and the photo of a page on a desk of :data:`PAPERS`), runs
+``inkmotion run fit`` on the picture (a separate process, as a user would;
+``--fit-option`` adds an option of its own to every fit) and prints a table;
 ``OUT/pictures.json`` holds every figure.
 
 Scores (fitted motion against the true trace, both on the fit's canvas):
@@ -32,6 +33,7 @@ import math
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -281,15 +283,22 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--fit-option", action="append", default=[], metavar="OPTION",
                         help="an option of inkmotion run fit for every fit, repeatable, "
                              "e.g. --fit-option=--lambda=80")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="fits run at once, each a process of its own (default 1)")
     args = parser.parse_args(argv)
     scans = [s for s in SCANS if not args.scan or s.name in args.scan]
     scans += [s for s in PAPERS if args.scan and s.name in args.scan]
     if args.varying:
         scans = [Scan(**{**asdict(s), "name": s.name + "-vw", "varying": True}) for s in scans]
-    rows = []
-    for source in args.sources:
-        for scan in scans:
-            row = run_one(source, scan, args.out, args.steps, tuple(args.fit_option))
+    if args.jobs < 1:
+        parser.error(f"--jobs takes 1 or more fits at once, not {args.jobs}")
+    work = [(source, scan) for source in args.sources for scan in scans]
+    rows: list[dict] = []
+    # each fit is a process of its own with its own fixed thread count: N of them side by
+    # side give the plans they give alone; the rows come in the order of the work
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        for row in pool.map(lambda w: run_one(w[0], w[1], args.out, args.steps,
+                                              tuple(args.fit_option)), work):
             rows.append(row)
             print(dumps(row), flush=True)
             (args.out / "pictures.json").write_text(dumps(rows, indent=1))
