@@ -168,7 +168,9 @@ def _down_backward(grad: torch.Tensor, n: int, dim: int) -> torch.Tensor:
         tail = grad.narrow(dim, half, 1)
         for j in range(KERNEL_SIZE):
             padded.narrow(dim, n - 1 + j, 1).add_(tail * k[j])
-    out = padded.narrow(dim, r, n).clone()
+    # the body of the buffer, its edges folded back in place (they read only the padding:
+    # no copy, the same values)
+    out = padded.narrow(dim, r, n)
     out.narrow(dim, 0, 1).add_(padded.narrow(dim, 0, 1)).add_(padded.narrow(dim, 1, 1))
     end = padded.narrow(dim, r + n, r + 1)
     for j in range(r + 1):
