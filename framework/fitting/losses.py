@@ -29,16 +29,16 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     m = layout.moves.to(t_end.dtype)  # (P,)
     path = layout.move_path  # (M,)
     used = (~layout.first).to(t_end.dtype)  # (M,) Δt_i that set an onset
+    weight = scalar_tensors(t_end, w_sigma)[0]  # the same bits as w_σ, fewer casts
     if over == "pooled":  # one overlap rhythm over the whole drawing
         n_used = used.sum().clamp(min=1.0)
         mean_all = (batch.delta_t * used).sum() / n_used
         dev_all = (batch.delta_t - mean_all) * used
-        return t_end.sum() / m.sum() + w_sigma * (dev_all * dev_all).sum() / n_used
+        return t_end.sum() / m.sum() + weight * (dev_all * dev_all).sum() / n_used
     denom = (m - 1.0).clamp(min=1.0)  # (P,) m_p − 1 of them
     mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
     dev = (batch.delta_t - mean[path]) * used
     var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom
-    weight = scalar_tensors(var, w_sigma)[0]  # the same bits, fewer casts
     if over == "drawing":
         return t_end.sum() / m.sum() + weight * var.mean()
     assert over == "path", over

@@ -358,8 +358,8 @@ def capsule_coverage(
     ab = b - a  # (N, 2)
     inv_len2 = torch.reciprocal((ab * ab).sum(1).clamp(min=1e-12))  # (N,)
     dr = None if r_end is None else r_end - r  # (N,)
+    half = scalar_tensors(a, 0.5)[0]  # pixel centres at + ½
     with torch.no_grad() if sparse else contextlib.nullcontext():
-        half = scalar_tensors(a, 0.5)[0]
         dx = (xs.to(dtype) + half - a[:, :1])[:, None, :]  # (N, 1, kx)
         dy = (ys.to(dtype) + half - a[:, 1:])[:, :, None]  # (N, ky, 1)
         at = (slice(None), None, None)  # (N, 1, 1)
@@ -384,7 +384,6 @@ def capsule_coverage(
             y_at = ys.reshape(-1).index_select(0, piece * ky + within // kx).to(dtype)
         # index_select, not a[piece, 0]: a third of the cost per gather here; one column at
         # a time, as before, so the gradients add up in the same order (the same bits)
-        half = scalar_tensors(a, 0.5)[0]
         x_rim = _excess(x_at + half - a[:, 0].index_select(0, piece),
                         y_at + half - a[:, 1].index_select(0, piece),
                         ab[:, 0].index_select(0, piece), ab[:, 1].index_select(0, piece),
