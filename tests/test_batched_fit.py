@@ -84,14 +84,17 @@ def _plans(seed: int, paths: int) -> list[MotorPlan]:
     return out
 
 
+@pytest.mark.parametrize("initial", [False, True])
 @pytest.mark.parametrize("over", ["pooled", "drawing", "path"])
-def test_smoothing_and_canvas_costs_per_drawing_are_each_drawings_own(over):
+def test_smoothing_and_canvas_costs_per_drawing_are_each_drawings_own(over, initial):
     drawings = [_plans(1, 3), _plans(2, 1), _plans(3, 2)]
     union = PlanBatch.from_plans([p for d in drawings for p in d])
     layout = union.layout()
     t_end = torch.rand(len(layout.moves), dtype=torch.float64) + 1
     path_item = torch.repeat_interleave(torch.arange(3), torch.tensor([3, 1, 2]))
-    costs = smoothing_costs(union, t_end, 10.0, layout, over, path_item, 3)
+    # a fit's initial counts (fewer than the plans' own, as after edits that added targets)
+    time_moves = (layout.moves - torch.tensor([1, 0, 1, 0, 1, 0])) if initial else None
+    costs = smoothing_costs(union, t_end, 10.0, layout, over, path_item, 3, time_moves)
     sizes = torch.tensor([[250, 200], [300, 100], [120, 260]])
     point_item = torch.repeat_interleave(path_item, layout.moves + 1)
     canvas = canvas_costs(union.points, point_item, sizes, 3)
@@ -100,7 +103,9 @@ def test_smoothing_and_canvas_costs_per_drawing_are_each_drawings_own(over):
         own = PlanBatch.from_plans(d)
         ends = t_end[start:start + len(d)]
         start += len(d)
-        torch.testing.assert_close(costs[k], smoothing_cost(own, ends, 10.0, own.layout(), over))
+        own_moves = None if time_moves is None else time_moves[start - len(d):start]
+        torch.testing.assert_close(costs[k], smoothing_cost(own, ends, 10.0, own.layout(), over,
+                                                            own_moves))
         torch.testing.assert_close(canvas[k], canvas_cost(own.points, *sizes[k].tolist()))
 
 

@@ -35,6 +35,7 @@ def can_batch(objectives: list[Objective]) -> bool:
     return all(o.renderer is renderer and o.p == first.p
                and list(o.image_losses) == list(first.image_losses)
                and (o.trace is None) == (first.trace is None)
+               and (o.time_moves is None) == (first.time_moves is None)
                and max(o.width, o.height) == max(first.width, first.height)
                for o in objectives)
 
@@ -47,7 +48,9 @@ class BatchObjective(Objective):
         first = objectives[0]
         super().__init__(first.renderer, {}, (max(o.width for o in objectives),
                                               max(o.height for o in objectives)),
-                         first.p, static=first.static, check_every=first.check_every)
+                         first.p, static=first.static, check_every=first.check_every,
+                         time_moves=None if first.time_moves is None else
+                         [m for o in objectives for m in o.time_moves or ()])
         self.items = objectives
         self.path_counts = path_counts
         self.count = len(objectives)
@@ -102,7 +105,8 @@ class BatchObjective(Objective):
             terms[name] = fn(rendered)
             image = image + terms[name]
         terms["smooth"] = smoothing_costs(batch, t_end, self.p.w_sigma, layout,
-                                          self.p.smooth_over, index["path_item"], self.count)
+                                          self.p.smooth_over, index["path_item"], self.count,
+                                          self._time_moves_on(batch))
         terms["canvas"] = canvas_costs(batch.points, index["point_item"], index["sizes"],
                                        self.count)
         if self.trace_union is not None:

@@ -16,7 +16,7 @@ raises a flag on the device, read every ``check_every`` calls (or by
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -75,13 +75,19 @@ class Objective:
     CPU, where reading the device is free and sizing per call does less work).
     ``check_every``: read the "no longer fits" flags every that many calls (0: only when
     :meth:`replan_if_needed` is called, e.g. by the optimiser with its own checks).
+    ``time_moves``: the sub-movements of each path that divide its T_end in L_smooth, fixed
+    for the whole fit (a fit passes its initial plan's, so plan edits do not weaken the
+    pull towards a rapid motion); None: each evaluated plan's own.
     """
 
     def __init__(self, renderer: Renderer, image_losses: dict[str, BoundLoss],
                  canvas: tuple[int, int], weights: Weights, *, static: bool | None = None,
-                 check_every: int = 25, trace: TraceTerm | None = None) -> None:
+                 check_every: int = 25, trace: TraceTerm | None = None,
+                 time_moves: Sequence[int] | None = None) -> None:
         self.renderer = renderer
         self.trace = trace
+        self.time_moves = None if time_moves is None else tuple(int(m) for m in time_moves)
+        self._time_moves: torch.Tensor | None = None  # time_moves on the plans' device
         self.image_losses = image_losses
         self.width, self.height = canvas
         self.p = weights
@@ -103,7 +109,7 @@ class Objective:
             terms[name] = fn(rendered)
             image = image + terms[name]
         terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma, layout,
-                                         self.p.smooth_over)
+                                         self.p.smooth_over, self._time_moves_on(batch))
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
         if self.trace is not None:
             terms["trace"] = self.trace(segments, layout, step)
@@ -139,6 +145,17 @@ class Objective:
                 else self._window_overflow | overflow
         segments = hermite_segments(kin.positions, kin.velocities, layout, dt)
         return layout, t_end, kin, segments
+
+    def _time_moves_on(self, batch: PlanBatch) -> torch.Tensor | None:
+        """``time_moves`` as a tensor on the batch's device (made once), or None."""
+        if self.time_moves is None:
+            return None
+        if self._time_moves is None or self._time_moves.device != batch.moves.device:
+            if len(self.time_moves) != int(batch.moves.shape[0]):
+                raise ValueError(f"time_moves has {len(self.time_moves)} paths, the plans "
+                                 f"{int(batch.moves.shape[0])}")
+            self._time_moves = torch.as_tensor(self.time_moves, device=batch.moves.device)
+        return self._time_moves
 
     def state(self) -> dict:
         """The state of the objective's terms that a resumed fit needs (a checkpoint)."""

@@ -52,7 +52,8 @@ class FitParams(OptimisationParams):
     the motion strays from the ink; 8: only a worst miss brought within its goal keeps an
     edit that gains less than its targets must, and an edit that pins overlaps on a clamp
     bound may be kept; 9: a last stage that pins overlaps is kept; 10: edits judged by
-    accuracy alone, not by the time they add)."""
+    accuracy alone, not by the time they add; 11: the minimum-time cost divided by the
+    edited plan's own count of sub-movements)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -111,6 +112,11 @@ class FitParams(OptimisationParams):
                              "that time back in accuracy; an edit that frees overlaps Δt "
                              "from a clamp bound and draws more accurately is kept.",
                              earlier={10: False})
+    time_by_initial_moves: bool = param(True, "The minimum-time cost divides each path's "
+                                        "T_end by its initial plan's sub-movements, so "
+                                        "targets a plan edit adds do not make the "
+                                        "motion's time cheaper (without it, by the "
+                                        "plan's own count).", earlier={11: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -229,7 +235,9 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
                           p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace),
                           trace=_trace_term(traces, plans, dtype, job.device, tolerance,
                                             p.w_worst)
-                          if p.w_trace > 0 else None)
+                          if p.w_trace > 0 else None,
+                          time_moves=[plan.m for plan in plans]
+                          if p.time_by_initial_moves else None)
     job.start(canvas, target, traces.strokes)
     strokes = [np.asarray(st, dtype=np.float64)[:, :2] for st in traces.strokes]
 

@@ -1,0 +1,87 @@
+"""The minimum-time cost L_smooth (fitting.losses.smoothing_cost): T_end divided by the
+plan's own sub-movement counts, or by fixed ones (a fit's initial plan, spec 12), so a
+plan edit's new targets do not make the motion's time cheaper."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from inkmotion.fitting.losses import smoothing_cost
+from inkmotion.sigma_lognormal.batch import PlanBatch
+from inkmotion.sigma_lognormal.plan import MotorPlan
+
+
+def _batch(moves: list[int]) -> PlanBatch:
+    g = torch.Generator().manual_seed(sum(moves))
+    plans = [MotorPlan(points=torch.rand(m + 1, 2, generator=g, dtype=torch.float64) * 200,
+                       delta_t=0.1 + 0.8 * torch.rand(m, generator=g, dtype=torch.float64),
+                       delta=torch.zeros(m, dtype=torch.float64),
+                       ac=torch.full((m,), 0.05, dtype=torch.float64),
+                       T=torch.full((m,), 0.3, dtype=torch.float64)) for m in moves]
+    return PlanBatch.from_plans(plans)
+
+
+@pytest.mark.parametrize("over", ["pooled", "drawing", "path"])
+def test_the_plans_own_counts_give_the_same_bits_as_none(over):
+    batch = _batch([3, 1, 5])
+    layout = batch.layout()
+    t_end = torch.tensor([1.5, 0.7, 2.25], dtype=torch.float64)
+    own = smoothing_cost(batch, t_end, 10.0, layout, over)
+    same = smoothing_cost(batch, t_end, 10.0, layout, over, layout.moves.clone())
+    assert torch.equal(own, same)
+
+
+@pytest.mark.parametrize("over, expected", [
+    # the time part alone (w_σ = 0): Σ T_end / Σ m0, or the mean over paths of T_end / m0
+    ("pooled", (1.5 + 0.7 + 2.25) / (2 + 1 + 4)),
+    ("drawing", (1.5 + 0.7 + 2.25) / (2 + 1 + 4)),
+    ("path", (1.5 / 2 + 0.7 / 1 + 2.25 / 4) / 3),
+])
+def test_fixed_counts_divide_t_end_and_not_the_plans_own(over, expected):
+    batch = _batch([3, 1, 5])  # an edit added a target to paths 0 and 2
+    layout = batch.layout()
+    t_end = torch.tensor([1.5, 0.7, 2.25], dtype=torch.float64)
+    cost = smoothing_cost(batch, t_end, 0.0, layout, over, torch.tensor([2, 1, 4]))
+    assert float(cost) == pytest.approx(expected, rel=1e-12)
+    cheaper = smoothing_cost(batch, t_end, 0.0, layout, over)  # the plan's own 3, 1, 5
+    assert float(cheaper) < float(cost)
+
+
+def test_the_variance_part_does_not_depend_on_the_counts():
+    batch = _batch([3, 2])
+    layout = batch.layout()
+    zero = torch.zeros(2, dtype=torch.float64)
+    a = smoothing_cost(batch, zero, 10.0, layout, "pooled")
+    b = smoothing_cost(batch, zero, 10.0, layout, "pooled", torch.tensor([1, 1]))
+    assert torch.equal(a, b) and float(a) > 0
+
+
+def test_an_objective_refuses_counts_for_other_paths():
+    from inkmotion.fitting.objective import Objective, Weights
+
+    weights = Weights(lambda_smooth=45.0, w_image=0.0, w_sigma=10.0, w_canvas=1.0,
+                      samples_per_move=5, smooth_over="pooled", w_trace=0.0)
+    objective = Objective(renderer=None, image_losses={}, canvas=(100, 100),  # type: ignore
+                          weights=weights, time_moves=[2, 2, 2])
+    with pytest.raises(ValueError, match="3 paths, the plans 2"):
+        objective._time_moves_on(_batch([3, 2]))
+
+
+@pytest.mark.parametrize("version, fixed", [(12, True), (11, False)])
+def test_a_fit_divides_time_by_its_initial_plans_counts_from_spec_12(tmp_path, version, fixed):
+    import torch as _torch
+
+    from inkmotion.jobs.kind import resolve
+    from inkmotion.jobs.shell import Job, ObserverGroup
+    from inkmotion.jobs.spec import JobSpec
+    from inkmotion.kinds.fit import _prepare
+
+    spec = JobSpec.from_dict({"version": version, "kind": "fit",
+                              "inputs": {"drawing": "text:hi"}, "params": {"steps": 5}})
+    resolved = resolve(spec)
+    job = Job(spec, resolved.params, _torch.device("cpu"), tmp_path, ObserverGroup([]),
+              resolved, 5)
+    problem, _ = _prepare(job)
+    expected = tuple(plan.m for plan in problem.plans) if fixed else None
+    assert problem.objective.time_moves == expected
