@@ -147,15 +147,19 @@ class Objective:
         return layout, t_end, kin, segments
 
     def _time_moves_on(self, batch: PlanBatch) -> torch.Tensor | None:
-        """``time_moves`` as a tensor on the batch's device (made once), or None."""
+        """``time_moves`` as a tensor of the plans' dtype on their device (made once), or
+        None."""
         if self.time_moves is None:
             return None
-        if self._time_moves is None or self._time_moves.device != batch.moves.device:
+        kept = self._time_moves
+        if kept is None or kept.device != batch.points.device \
+                or kept.dtype != batch.points.dtype:
             if len(self.time_moves) != int(batch.moves.shape[0]):
                 raise ValueError(f"time_moves has {len(self.time_moves)} paths, the plans "
                                  f"{int(batch.moves.shape[0])}")
-            self._time_moves = torch.as_tensor(self.time_moves, device=batch.moves.device)
-        return self._time_moves
+            kept = self._time_moves = torch.as_tensor(
+                self.time_moves, dtype=batch.points.dtype, device=batch.points.device)
+        return kept
 
     def state(self) -> dict:
         """The state of the objective's terms that a resumed fit needs (a checkpoint)."""
