@@ -74,6 +74,19 @@ def test_the_cli_reference_lists_the_projects_own_plugins_only(generated: str) -
         assert f"\n### {kind}\n" in generated, kind
 
 
+def test_the_cli_reference_names_the_own_plugins_of_every_plugin_kind(generated: str) -> None:
+    """Each plugin parameter's allowed values list that kind's own plugins (the tracer's
+    list was empty while the reference knew plugin kinds of its own, not the hooks')."""
+    from inkmotion.cli.reference import own_plugins
+    from inkmotion.plugin_host.hookspecs import KIND_HOOKS
+
+    plugins = own_plugins()
+    assert set(plugins) == set(KIND_HOOKS)
+    for kind in ("tracer", "reader", "initialiser", "image-loss", "renderer"):
+        assert plugins[kind], kind
+        assert f"{kind}: `{next(iter(plugins[kind]))}`" in generated, kind
+
+
 # --- links -----------------------------------------------------------------------------
 def _prose(text: str) -> str:
     """Markdown without fenced code blocks and inline code (links there are not links)."""

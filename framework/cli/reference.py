@@ -42,14 +42,14 @@ def own_plugins() -> dict[str, dict[str, Any]]:
     """The project's own plugin objects by plugin kind and name (entry points of the
     :data:`DISTRIBUTION` distribution only; broken and disabled ones left out)."""
     from inkmotion.plugin_host import host
+    from inkmotion.plugin_host.hookspecs import KIND_HOOKS
 
     h = host()
     own = {(r.kind, r.name) for r in h.table()
            if r.error is None and r.origin.split(" ", 1)[0] == DISTRIBUTION}
     return {kind: {name: obj for name, obj in sorted(h.plugins(kind).items())
                    if (kind, name) in own}
-            for kind in ("job-kind", "reader", "initialiser", "image-loss", "renderer",
-                         "saliency", "robot-backend")}
+            for kind in KIND_HOOKS}
 
 
 # --- text ------------------------------------------------------------------------------------
