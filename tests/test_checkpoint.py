@@ -42,26 +42,46 @@ def plan_of(folder: Path) -> dict:
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> dict:
     out = tmp_path_factory.mktemp("ck") / "whole"
-    run_job(spec(), out)
+    run_job(spec(rapid_within=0.0), out)
     return plan_of(out)
 
 
 @pytest.mark.parametrize("crash, resumed", [(37, 30), (45, 40), (58, 50)])
 def test_a_resumed_fit_equals_an_uninterrupted_one(tmp_path: Path, uninterrupted: dict,
                                                    crash: int, resumed: int) -> None:
-    """60 steps in stages of 36, 12 and 12 (edits after 36 and 48); a checkpoint every 10
-    steps; the crash at 37 and 45 falls inside the second stage, at 58 in the third."""
+    """60 steps in stages of 36, 12 and 12 (edits after 36 and 48; no tempo ladder); a
+    checkpoint every 10 steps; the crash at 37 and 45 falls inside the second stage, at
+    58 in the third."""
     checkpoint = tmp_path / "checkpoint.pt"
     with pytest.raises(Crash):
-        run_job(spec(), tmp_path / "a", observers=[CrashAt(crash)], checkpoint=checkpoint,
-                checkpoint_every=10, checkpoint_s=1e9)
+        run_job(spec(rapid_within=0.0), tmp_path / "a", observers=[CrashAt(crash)],
+                checkpoint=checkpoint, checkpoint_every=10, checkpoint_s=1e9)
     assert checkpoint.is_file() and not (tmp_path / "a").exists()
-    report = run_job(spec(), tmp_path / "a", checkpoint=checkpoint, checkpoint_every=10,
-                     checkpoint_s=1e9)
+    report = run_job(spec(rapid_within=0.0), tmp_path / "a", checkpoint=checkpoint,
+                     checkpoint_every=10, checkpoint_s=1e9)
     assert report["resumed_from_step"] == resumed
     assert plan_of(tmp_path / "a") == uninterrupted  # bit for bit (JSON of float64 values)
     whole = json.loads((tmp_path / "a" / "report.json").read_text())
     assert whole["steps"] == 60 and len(whole["stages"]) == 3
+
+
+def test_a_fit_interrupted_in_its_tempo_ladder_resumes_to_the_same_plan(tmp_path: Path
+                                                                        ) -> None:
+    """The default fit of 60 steps: stages of 29, 10 and 9, then rungs of 3 from step 49
+    on (no checkpoint inside them): a crash at step 50 resumes from the stages' last
+    checkpoint and runs the rungs again, to the uninterrupted plan, bit for bit."""
+    whole = run_job(spec(), tmp_path / "whole")
+    rungs = [s for s in whole["stages"] if "time_weight" in s]
+    assert [s["steps"] for s in whole["stages"][:3]] == [29, 10, 9] and rungs
+    checkpoint = tmp_path / "checkpoint.pt"
+    with pytest.raises(Crash):
+        run_job(spec(), tmp_path / "a", observers=[CrashAt(50)], checkpoint=checkpoint,
+                checkpoint_every=10, checkpoint_s=1e9)
+    report = run_job(spec(), tmp_path / "a", checkpoint=checkpoint, checkpoint_every=10,
+                     checkpoint_s=1e9)
+    assert 0 < report["resumed_from_step"] <= 48
+    assert plan_of(tmp_path / "a") == plan_of(tmp_path / "whole")
+    assert report["steps"] == whole["steps"] and report["stages"] == whole["stages"]
 
 
 def test_a_checkpoint_of_another_spec_is_not_resumed(tmp_path: Path) -> None:
@@ -165,12 +185,12 @@ def test_a_checkpoint_that_loads_as_data_but_is_malformed_starts_the_job_over(
 
     checkpoint = tmp_path / "checkpoint.pt"
     with pytest.raises(Crash):
-        run_job(spec(), tmp_path / "a", observers=[CrashAt(45)], checkpoint=checkpoint,
-                checkpoint_every=10, checkpoint_s=1e9)
+        run_job(spec(rapid_within=0.0), tmp_path / "a", observers=[CrashAt(45)],
+                checkpoint=checkpoint, checkpoint_every=10, checkpoint_s=1e9)
     torch.save(_malformed(torch.load(checkpoint, weights_only=True), how), checkpoint)
     with caplog.at_level("WARNING", logger="inkmotion"):
-        report = run_job(spec(), tmp_path / "a", checkpoint=checkpoint, checkpoint_every=10,
-                         checkpoint_s=1e9)
+        report = run_job(spec(rapid_within=0.0), tmp_path / "a", checkpoint=checkpoint,
+                         checkpoint_every=10, checkpoint_s=1e9)
     assert report["resumed_from_step"] == 0
     assert plan_of(tmp_path / "a") == uninterrupted
     said = [r.getMessage() for r in caplog.records if "checkpoint" in r.getMessage()]

@@ -363,18 +363,135 @@ def report_of(folder: Path) -> dict:
     return json.loads((folder / "report.json").read_text())
 
 
-def test_default_fit_reports_its_plan_and_stages(word: Path) -> None:
+@pytest.fixture(scope="module")
+def default_fit(word: Path) -> Path:
+    """The folder of a default fit of ``text:hi`` (90 steps, 160 px)."""
     out = word / "default"
     res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "90", "--size",
                     "160", "--no-record")
     assert res.returncode == 0, res.stderr
+    return out
+
+
+def test_default_fit_reports_its_plan_and_stages(default_fit: Path) -> None:
+    out = default_fit
     r = report_of(out)
-    assert r["steps"] == 90 and [s["steps"] for s in r["stages"]] == [54, 18, 18]
+    # the last fifth of the steps is the tempo ladder's: rungs of 4 (spec 12)
+    assert [s["steps"] for s in r["stages"][:3]] == _split(90 - 4 * 4, 0.6, 2) == [44, 15, 15]
+    rungs = r["stages"][3:]
+    assert [s["steps"] for s in rungs] == [4] * len(rungs) and 1 <= len(rungs) <= 4
+    assert r["steps"] == sum(s["steps"] for s in r["stages"])
     assert r["stages"][0]["moves"] <= r["moves"] <= 1.2 * r["stages"][0]["moves"] + 1
     assert 0.0 <= r["delta_t_at_clamp"] <= 1.0 and r["speed_peaks"] >= r["paths"]
     assert "recorded" not in r  # a Hershey word has no time stamps
     spec = json.loads((out / "job.json").read_text())["spec"]
     assert spec["params"]["targets"] == "default" and spec["params"]["refine"] == 2
+
+
+def test_the_tempo_ladder_keeps_the_most_rapid_rung_within_the_goals(word: Path,
+                                                                     default_fit: Path) -> None:
+    """Rungs of λ × 1.5, 2, 3, 4, each going on from the one before, until one leaves the
+    goals; the result is the last kept rung (each kept one more rapid than the one before
+    by the margin), and ``--rapid-within 0`` gives every step to the stages (spec 11's
+    split)."""
+    from inkmotion.fitting.stages import TEMPO_MARGIN, TEMPO_RUNGS
+
+    r = report_of(default_fit)
+    rungs = [s for s in r["stages"] if "time_weight" in s]
+    assert [s["time_weight"] for s in rungs] == list(TEMPO_RUNGS[:len(rungs)])
+    ended = [s for s in rungs if "the ladder ends" in s["why"]]
+    assert ended in ([], [rungs[-1]])  # only the last rung may leave the goals
+    assert not any(s["kept"] for s in ended)
+    kept = [s for s in rungs if s["kept"]]
+    ratios = [s["t_end_ratio"] for s in kept]
+    assert all(b <= a - TEMPO_MARGIN for a, b in zip(ratios, ratios[1:], strict=False))
+    if kept:  # the result is the last kept rung's plan
+        assert r["t_end_ratio_multi"] == pytest.approx(kept[-1]["t_end_ratio"], abs=1e-9)
+        assert r["chamfer_mean_px"] == pytest.approx(kept[-1]["chamfer_mean_px"], abs=1e-9)
+        assert r["moves"] == kept[-1]["moves"]
+    out = word / "no-ladder"
+    res = inkmotion("run", "fit", "text:hi", "--out", str(out), "--steps", "90", "--size",
+                    "160", "--no-record", "--rapid-within", "0")
+    assert res.returncode == 0, res.stderr
+    plain = report_of(out)
+    assert [s["steps"] for s in plain["stages"]] == [54, 18, 18]
+    assert not any("time_weight" in s for s in plain["stages"])
+
+
+def _rung_result(offset: float, t_end: float, pinned: bool = False) -> object:
+    """A stand-in for a rung's :class:`FitResult`: a two-move plan along y = offset (the
+    input is the line y = 0, 100 px long), ending at ``t_end``."""
+    from inkmotion.fitting.optimise import FitResult
+
+    plan = plan_through([[0, offset], [50, offset], [100, offset]])
+    if pinned:  # its second overlap on the 0.1 floor
+        plan.delta_t[1] = 0.1
+    return FitResult([plan], {}, {}, [2.0], [t_end], torch.zeros(1, 1), 0.01, 4,
+                     {"leaves": {}, "adam": {}})
+
+
+@pytest.mark.parametrize("rungs, kept, ended", [
+    # each rung more rapid, all within: the last one is the result
+    ([(0.0, 1.9), (0.0, 1.8), (0.0, 1.7), (0.0, 1.6)], [True] * 4, None),
+    # the third leaves the mean's goal: the ladder ends, the second is the result
+    ([(0.0, 1.9), (0.0, 1.8), (2.0, 1.5)], [True, True, False], 2),
+    # a rung within the goals but more rapid by less than the margin is not kept
+    ([(0.0, 1.9), (0.0, 1.899), (0.0, 1.7), (0.0, 1.695)], [True, False, True, False], None),
+    # a rung that pins an overlap ends the ladder
+    ([(0.0, 1.9), (0.0, 1.5, True)], [True, False], 1),
+])
+def test_the_ladder_decides_by_the_goals_and_the_margin(rungs, kept, ended) -> None:
+    from inkmotion.fitting.optimise import OptimiserSettings
+    from inkmotion.fitting.stages import RefineSettings, _tempo_ladder
+
+    start = _rung_result(0.0, 2.0)
+    record: list[dict] = []
+    ladder = _tempo_ladder(start, start, plans_of=[2], strokes=[np.array([[0.0, 0.0],
+                                                                          [100.0, 0.0]])],
+                           size=350.0, settings=OptimiserSettings(400, 2.0, 0.05, 0.1, 0.0, 0.3),
+                           refine=RefineSettings(rounds=2, rapid_within=0.5),
+                           observers=None, record=record, done=320, decay=320, rung_steps=20)
+    request = next(ladder)
+    answers = [_rung_result(*r) for r in rungs]
+    factors = []
+    try:
+        for answer in answers:
+            factors.append(request.time_weight)
+            request = ladder.send(answer)
+        raise AssertionError("the ladder asked for a rung past the answers")
+    except StopIteration as stop:
+        result, done, _ = stop.value
+    assert factors == [1.5, 2.0, 3.0, 4.0][:len(rungs)]
+    assert [e["kept"] for e in record] == kept and done == 320 + 20 * len(rungs)
+    last_kept = max(i for i, k in enumerate(kept) if k)
+    assert result is answers[last_kept]
+    if ended is not None:
+        assert "the ladder ends" in record[ended]["why"] and len(record) == ended + 1
+
+
+def test_rung_steps_come_out_of_the_fits_steps() -> None:
+    from inkmotion.fitting.stages import RefineSettings, _rung_steps
+
+    assert _rung_steps(400, RefineSettings(rounds=2, rapid_within=0.5)) == 20
+    assert _rung_steps(400, RefineSettings(rounds=2, rapid_within=0.0)) == 0  # spec 11
+    assert _rung_steps(7, RefineSettings(rounds=2, rapid_within=0.5)) == 0  # too short
+    assert _rung_steps(90, RefineSettings(rounds=2, rapid_within=0.5)) == 4
+
+
+def test_a_rungs_time_weight_lasts_for_the_rung_alone() -> None:
+    from inkmotion.fitting.objective import Objective, Weights
+    from inkmotion.fitting.stages import _time_weighted
+
+    weights = Weights(lambda_smooth=45.0, w_image=1.0, w_sigma=10.0, w_canvas=1.0,
+                      samples_per_move=5, smooth_over="pooled", w_trace=0.0)
+    objective = Objective(renderer=None, image_losses={}, canvas=(10, 10),  # type: ignore
+                          weights=weights)
+    with _time_weighted(objective, 3.0):
+        assert objective.p.lambda_smooth == 135.0 and objective.p.w_sigma == 10.0
+    assert objective.p is weights
+    with pytest.raises(RuntimeError), _time_weighted(objective, 2.0):
+        raise RuntimeError("a rung that fails")
+    assert objective.p is weights
 
 
 def test_a_count_of_targets_is_honoured(word: Path) -> None:

@@ -392,6 +392,9 @@ class Request:
     observers: object = None
     resume: dict | None = None
     checkpoint: object = None
+    #: λ times this for the stage (a rung of the tempo ladder, :mod:`~inkmotion.fitting.
+    #: stages`)
+    time_weight: float = 1.0
 
 
 def _adam_together(fits: list[_Leaves], factor: float) -> None:

@@ -44,7 +44,8 @@ across the stages (a progress bar of the whole fit).
 from __future__ import annotations
 
 import math
-from collections.abc import Generator
+from collections.abc import Generator, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -70,6 +71,15 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
 MAX_AUTO_ROUNDS = 12
+#: the tempo ladder's rungs: λ times these, one after the other (module docstring)
+TEMPO_RUNGS = (1.5, 2.0, 3.0, 4.0)
+#: a rung is kept only if it shortens T_end (ratio) by at least this: round-off never does
+TEMPO_MARGIN = 0.005
+#: px at 350 px the ladder may add to the worst miss (within the 8-px goal): up to the goal
+#: itself, a 2.6-px miss of a scan's traced strokes grew to 5.9 px and 10.1 px from the
+#: recorded trace (49867 at 1000 px); over the development set a 2-px allowance kept 15 of
+#: the 21 inputs as rapid as without it (mean of the max 4.46 px against 4.64)
+TEMPO_WORST_GROWTH_PX = 2.0
 
 
 @dataclass(frozen=True)
@@ -93,6 +103,10 @@ class RefineSettings:
     unpinned_end: bool = True
     #: the criterion that judges an edit weighs the motion's T_end ratio too
     weigh_time: bool = True
+    #: default mode: px (at 350) within which the tempo ladder may spend the mean distance
+    #: on a more rapid motion, the last ``tempo_share`` of the steps (0: no ladder)
+    rapid_within: float = 0.0
+    tempo_share: float = 0.2
 
     @property
     def rule(self) -> Sparsity:
@@ -404,27 +418,128 @@ def fit_together_in_stages(problems: list[StagedProblem]) -> list[StagedFit]:
         groups: dict[tuple, list[int]] = {}
         for b, r in pending.items():
             key = (r.settings.steps, r.settings.schedule_start, r.settings.schedule_total,
-                   int(r.resume["step"]) if r.resume else 0, len(r.plans[0].points[0]))
+                   int(r.resume["step"]) if r.resume else 0, len(r.plans[0].points[0]),
+                   r.time_weight)
             groups.setdefault(key, []).append(b)
         for members in groups.values():
             requests = [pending.pop(b) for b in members]
             objectives = [problems[b].objective for b in members]
+            weight = requests[0].time_weight
             if len(members) > 1 and can_batch(objectives):
                 together = BatchObjective(objectives, [len(r.plans) for r in requests])
-                results = optimise_together(requests, together)
+                with _time_weighted(together, weight):
+                    results = optimise_together(requests, together)
             else:
-                results = [optimise(r.plans, o, r.settings, r.observers, resume=r.resume,
-                                    checkpoint=r.checkpoint)
-                           for r, o in zip(requests, objectives, strict=True)]
+                results = []
+                for r, o in zip(requests, objectives, strict=True):
+                    with _time_weighted(o, weight):
+                        results.append(optimise(r.plans, o, r.settings, r.observers,
+                                                resume=r.resume, checkpoint=r.checkpoint))
             for b, result in zip(members, results, strict=True):
                 advance(b, result)
     return [done[b] for b in range(len(runs))]
+
+
+@contextmanager
+def _time_weighted(objective: Objective, factor: float) -> Iterator[None]:
+    """``objective`` with λ (the minimum-time cost's weight) times ``factor`` for the
+    duration (a rung of the tempo ladder), its own weights again after."""
+    if factor == 1.0:
+        yield
+        return
+    own = objective.p
+    objective.p = replace(own, lambda_smooth=own.lambda_smooth * factor)
+    try:
+        yield
+    finally:
+        objective.p = own
 
 
 #: what a fit's checkpoint state holds (:func:`_stages` saves and resumes it)
 _COUNTS = ("stage", "done", "inserted", "merged", "added", "initial_moves", "step_in_stage")
 _KEYS = ("record", "stage_plans", "first_terms", "first_t_end", "leaves", "adam",
          "initial_terms", "initial_t_end", "rng")
+
+
+def _rung_steps(steps: int, refine: RefineSettings) -> int:
+    """Steps of each rung of the tempo ladder (0: no ladder): ``tempo_share`` of the fit's
+    steps over the rungs, when the stages keep enough for themselves."""
+    if refine.rapid_within <= 0:
+        return 0
+    n = int(round(refine.tempo_share * steps / len(TEMPO_RUNGS)))
+    return n if n >= 1 and steps - len(TEMPO_RUNGS) * n >= refine.rounds + 1 else 0
+
+
+def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
+                  strokes: list[np.ndarray], size: float, settings: OptimiserSettings,
+                  refine: RefineSettings, observers: object, record: list[dict[str, Any]],
+                  done: int, decay: int, rung_steps: int
+                  ) -> Generator[Request, FitResult, tuple[FitResult, int, float]]:
+    """The most rapid motion within the goals (module docstring, "tempo ladder"): from the
+    staged fit's ``result``, rungs of ``rung_steps`` steps each with λ × :data:`TEMPO_RUNGS`
+    in turn, each going on from the one before (its Adam state too), at the learning rates
+    of the middle of the stages' decay (``decay`` steps). A rung stays within the goals
+    when its mean distance is within ``rapid_within`` px, its worst miss within 8 px and
+    no more than :data:`TEMPO_WORST_GROWTH_PX` beyond the worst before the ladder (at 350
+    px, the goals by the rule's rescue margin; a goal the fit already missed: no worse
+    than before the ladder) and no more overlaps sit on a clamp bound; the first that does
+    not ends the ladder. The result is the last rung within the goals that shortened the
+    T_end ratio by :data:`TEMPO_MARGIN` or more than the one kept before it, else
+    ``result``. Each rung is a record entry (``time_weight``, its figures, ``kept``).
+    Returns the result, the steps run so far (``done`` plus the rungs') and the rungs'
+    optimiser seconds."""
+    from inkmotion.evaluation.fit_motion import pinned_overlaps
+    from inkmotion.fitting.quality import chamfer_of, t_end_ratio
+
+    scale, margin = size / REFERENCE_SIZE, 1 - refine.rule.rescue_margin
+    mean0, worst0 = chamfer_of(strokes, result.plans)
+    allowed_mean = max(refine.rapid_within * scale * margin, mean0)
+    allowed_worst = max(min(GOAL_MAX_PX * margin, worst0 / scale + TEMPO_WORST_GROWTH_PX)
+                        * scale, worst0)
+    pins0 = len(pinned_overlaps(result.plans))
+    best = t_end_ratio(plans_of, first.initial_t_end, result.final_t_end)
+    if not math.isfinite(best):  # no path of 2+ sub-movements: no overlap to shorten
+        return result, done, 0.0
+    stage = replace(settings, steps=rung_steps, schedule_start=decay // 2,
+                    schedule_total=decay)
+    total = done + len(TEMPO_RUNGS) * rung_steps
+    current, wall = result, 0.0
+    for factor in TEMPO_RUNGS:
+        rung = yield Request(current.plans, stage, _Offset(observers, done, total),
+                             {**current.state, "step": 0}, None, time_weight=factor)
+        done, wall = done + rung_steps, wall + rung.wall_s
+        mean, worst = chamfer_of(strokes, rung.plans)
+        ratio = t_end_ratio(plans_of, first.initial_t_end, rung.final_t_end)
+        pins = len(pinned_overlaps(rung.plans))
+        within = mean <= allowed_mean and worst <= allowed_worst and pins <= pins0
+        faster = within and ratio <= best - TEMPO_MARGIN
+        record.append({"stage": len(record) + 1, "steps": rung_steps,
+                       "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
+                       "merged_before": 0, "time_weight": factor,
+                       "chamfer_mean_px": mean, "chamfer_max_px": worst,
+                       "t_end_ratio": ratio, "kept": faster,
+                       "why": _rung_why(within, faster, mean, worst, pins - pins0,
+                                        allowed_mean, allowed_worst)})
+        if not within:
+            break
+        current = rung
+        if faster:
+            result, best = rung, ratio
+    return result, done, wall
+
+
+def _rung_why(within: bool, faster: bool, mean: float, worst: float, pins: int,
+              allowed_mean: float, allowed_worst: float) -> str:
+    """A rung's record in a few words."""
+    if faster:
+        return "more rapid, within the goals"
+    if within:
+        return "within the goals, but no more rapid by the margin"
+    if mean > allowed_mean:
+        return f"the mean distance {mean:.2f} px passed {allowed_mean:.2f} px: the ladder ends"
+    if worst > allowed_worst:
+        return f"the worst miss {worst:.1f} px passed {allowed_worst:.1f} px: the ladder ends"
+    return f"{pins} more overlap(s) on a clamp bound: the ladder ends"
 
 
 def _unresumable(saved: dict[str, Any], plans: list[MotorPlan], settings: OptimiserSettings,
@@ -488,14 +603,18 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
     from inkmotion.fitting.quality import chamfer_of, t_end_ratio
 
     rollback = refine.mode == "default" and refine.rollback
+    rung_steps = 0  # the tempo ladder's, default mode
     if refine.mode == "auto":
         later = max(50, settings.steps // 4)
         steps = [settings.steps] + [later] * (MAX_AUTO_ROUNDS - 1)
     elif refine.mode == "default":
-        steps = _split(settings.steps, refine.first_share, refine.rounds)
+        rung_steps = _rung_steps(settings.steps, refine)
+        steps = _split(settings.steps - len(TEMPO_RUNGS) * rung_steps, refine.first_share,
+                       refine.rounds)
     else:
         steps = [settings.steps]
-    total = sum(steps)
+    total = sum(steps)  # the stages' steps, one decay
+    whole = total + len(TEMPO_RUNGS) * rung_steps  # the observers' count, the ladder's too
     record: list[dict[str, Any]] = []
     done, wall = 0, 0.0
     first: FitResult | None = None
@@ -552,7 +671,7 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             go_on = {**carry, "step": 0}
         else:
             go_on = None
-        result = yield Request(plans, stage, _Offset(observers, done, total), go_on, hook)
+        result = yield Request(plans, stage, _Offset(observers, done, whole), go_on, hook)
         if first is None and initial is not None and initial[0] is not None:
             result.initial_terms, result.initial_t_end = initial  # as before the break
         first = first or result
@@ -612,6 +731,12 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
         if refine.mode == "auto" and inserted == 0 and merged == 0:
             break  # nothing left to change: the goal is out of reach at this density
     assert result is not None and first is not None
+    if refine.mode == "default" and rung_steps:
+        result, done, rungs_wall = yield from _tempo_ladder(
+            result, first, plans_of=path_moves, strokes=strokes, size=size,
+            settings=settings, refine=refine, observers=observers, record=record, done=done,
+            decay=total, rung_steps=rung_steps)
+        total, wall = done, wall + rungs_wall  # a ladder that ends early runs fewer steps
     if refine.mode == "auto":
         total = done
         assert best is not None

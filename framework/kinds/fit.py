@@ -53,7 +53,7 @@ class FitParams(OptimisationParams):
     edit that gains less than its targets must, and an edit that pins overlaps on a clamp
     bound may be kept; 9: a last stage that pins overlaps is kept; 10: edits judged by
     accuracy alone, not by the time they add; 11: the minimum-time cost divided by the
-    edited plan's own count of sub-movements)."""
+    edited plan's own count of sub-movements, and no tempo ladder)."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -117,6 +117,14 @@ class FitParams(OptimisationParams):
                                         "targets a plan edit adds do not make the "
                                         "motion's time cheaper (without it, by the "
                                         "plan's own count).", earlier={11: False})
+    rapid_within: float = param(0.5, "After the plan edits, the last fifth of the steps "
+                                "seeks a more rapid motion: λ raised in rungs (×1.5, 2, 3, "
+                                "4) while the mean distance stays within this many px (at "
+                                "350 px, scaled with the canvas), the worst within 8 px "
+                                "and at most 2 px beyond where it was, and no overlap "
+                                "lands on a clamp bound; the most rapid "
+                                "such rung is the result (0: no rungs, every step for the "
+                                "stages).", minimum=0, maximum=20, earlier={11: 0.0})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -152,7 +160,7 @@ class FitParams(OptimisationParams):
                               protect_corners=self.keep_corners, sparsity=self.sparsity,
                               strays=self.strays, rescue_mean=self.rescue_mean,
                               unpinned=self.unpinned, unpinned_end=self.unpinned_end,
-                              weigh_time=self.weigh_time)
+                              weigh_time=self.weigh_time, rapid_within=self.rapid_within)
 
 
 def target_count(targets: str) -> int | None:
