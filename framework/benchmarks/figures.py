@@ -52,6 +52,7 @@ FIGURES: dict[str, tuple[str, str]] = {
     # fit
     "fit_input": ("", "the drawing the timed fit fits (--fit-input)"),
     "fit_steps": ("", "Adam steps of the timed fit (the fit's default)"),
+    "fit_steps_run": ("", "the steps it ran (fewer where its tempo ladder ended early)"),
     "fit_wall_s": ("s", "the whole fit job, default settings (350 px): read, initialise, "
                         "optimise, write (report.json's wall_s)"),
     "fit_warm_wall_s": ("s", "the same job again in the same process, as a worker's later "
@@ -59,8 +60,8 @@ FIGURES: dict[str, tuple[str, str]] = {
                              "--repeat N, the median of N)"),
     "fit_warm_wall_min_s": ("s", "with --repeat N: the fastest of those N"),
     "fit_warm_wall_max_s": ("s", "with --repeat N: the slowest of those N"),
-    "fit_ms_per_step": ("ms", "optimiser time per step (with --repeat N, the median over "
-                              "every run)"),
+    "fit_ms_per_step": ("ms", "optimiser time per step run (with --repeat N, the median "
+                              "over every run)"),
     "fit_moves": ("", "sub-movements (lognormals) of the fitted plan"),
     "fit_chamfer_mean_px": ("px", "mean distance between the input and the fitted "
                                   "trajectory (Chamfer, both ways)"),

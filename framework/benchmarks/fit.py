@@ -64,10 +64,12 @@ def bench_fit(input: str | None = None, steps: int | None = None, size: int = 35
     if len(warm_walls) > 1:
         warm_figures[f"fit{suffix}_warm_wall_min_s"] = min(warm_walls)
         warm_figures[f"fit{suffix}_warm_wall_max_s"] = max(warm_walls)
-    per_step = statistics.median(r["fit_s"] for r in [report, *again]) / steps
+    per_step = statistics.median(r["fit_s"] / max(int(r["steps"]), 1)
+                                 for r in [report, *again])
     return {
         "fit_input": source if is_scheme(source) else Path(source).name,
         "fit_steps": steps,
+        f"fit{suffix}_steps_run": int(report["steps"]),
         f"fit{suffix}_wall_s": report["wall_s"],
         **warm_figures,
         f"fit{suffix}_ms_per_step": 1e3 * per_step,
