@@ -52,7 +52,7 @@ FIGURES: dict[str, tuple[str, str]] = {
     # fit
     "fit_input": ("", "the drawing the timed fit fits (--fit-input)"),
     "fit_steps": ("", "Adam steps of the timed fit (the fit's default)"),
-    "fit_steps_run": ("", "the steps it ran (fewer where its tempo ladder ended early)"),
+    "fit_steps_run": ("", "the steps it ran (report.json's steps)"),
     "fit_wall_s": ("s", "the whole fit job, default settings (350 px): read, initialise, "
                         "optimise, write (report.json's wall_s)"),
     "fit_warm_wall_s": ("s", "the same job again in the same process, as a worker's later "

@@ -483,7 +483,9 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
     no more than :data:`TEMPO_WORST_GROWTH_PX` beyond the worst before the ladder (at 350
     px, the goals by the rule's rescue margin; a goal the fit already missed: no worse
     than before the ladder) and no more overlaps sit on a clamp bound; the first that does
-    not ends the ladder. The result is the last rung within the goals that shortened the
+    not ends the ladder (the rungs after it still run, unjudged, so a job runs the steps
+    it declared: its progress and recording reach their total). The result is the last
+    rung within the goals that shortened the
     T_end ratio by :data:`TEMPO_MARGIN` or more than the one kept before it, else
     ``result``. Each rung is a record entry (``time_weight``, its figures, ``kept``).
     Returns the result, the steps run so far (``done`` plus the rungs') and the rungs'
@@ -503,11 +505,17 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
     stage = replace(settings, steps=rung_steps, schedule_start=decay // 2,
                     schedule_total=decay)
     total = done + len(TEMPO_RUNGS) * rung_steps
-    current, wall = result, 0.0
+    current, wall, ended = result, 0.0, False
     for factor in TEMPO_RUNGS:
         rung = yield Request(current.plans, stage, _Offset(observers, done, total),
                              {**current.state, "step": 0}, None, time_weight=factor)
-        done, wall = done + rung_steps, wall + rung.wall_s
+        done, wall, current = done + rung_steps, wall + rung.wall_s, rung
+        if ended:  # the job's steps all run (its progress and recording reach its total)
+            record.append({"stage": len(record) + 1, "steps": rung_steps,
+                           "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
+                           "merged_before": 0, "time_weight": factor, "kept": False,
+                           "why": "after the ladder ended: run, not judged"})
+            continue
         mean, worst = chamfer_of(strokes, rung.plans)
         ratio = t_end_ratio(plans_of, first.initial_t_end, rung.final_t_end)
         pins = len(pinned_overlaps(rung.plans))
@@ -520,9 +528,7 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
                        "t_end_ratio": ratio, "kept": faster,
                        "why": _rung_why(within, faster, mean, worst, pins - pins0,
                                         allowed_mean, allowed_worst)})
-        if not within:
-            break
-        current = rung
+        ended = not within
         if faster:
             result, best = rung, ratio
     return result, done, wall
@@ -736,7 +742,7 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             result, first, plans_of=path_moves, strokes=strokes, size=size,
             settings=settings, refine=refine, observers=observers, record=record, done=done,
             decay=total, rung_steps=rung_steps)
-        total, wall = done, wall + rungs_wall  # a ladder that ends early runs fewer steps
+        total, wall = done, wall + rungs_wall
     if refine.mode == "auto":
         total = done
         assert best is not None
