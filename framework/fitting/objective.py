@@ -134,12 +134,14 @@ class Objective:
         if self.check_every and self._calls % self.check_every == 0:
             self.replan_if_needed()
         layout = self._layout(batch)
-        times, dt = uniform_times(batch, layout)
+        timing = batch.timing(layout)  # σ, μ, t0: one graph for T_end and the kinematics
+        times, dt = uniform_times(batch, layout, timing)
         if layout.window is None and self._static(batch):
             layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
                                                max_ac=AC_MAX)
         t_end = times.index_select(0, layout.block_end - 1)  # (P,) the last sample is T_end
-        kin, overflow = evaluate_kinematics(batch, times, layout, accelerations=False)
+        kin, overflow = evaluate_kinematics(batch, times, layout, accelerations=False,
+                                            timing=timing)
         if overflow is not None:
             self._window_overflow = overflow if self._window_overflow is None \
                 else self._window_overflow | overflow

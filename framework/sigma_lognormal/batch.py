@@ -181,8 +181,11 @@ class PlanBatch:
         sigma, mu = sigma_mu(self.ac, self.T)
         return sigma, mu, onsets(self.delta_t, self.T, sigma, mu, layout or self.layout())
 
-    def end_times(self, layout: GridLayout | None = None) -> torch.Tensor:
-        """(P,) T_end of each path."""
+    def end_times(self, layout: GridLayout | None = None,
+                  timing: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None
+                  ) -> torch.Tensor:
+        """(P,) T_end of each path; ``timing``: :meth:`timing` of ``layout`` when the
+        caller has it (a fit's step uses it twice: one graph, not two)."""
         layout = layout or self.layout()
-        sigma, mu, t0 = self.timing(layout)
+        sigma, mu, t0 = timing if timing is not None else self.timing(layout)
         return end_times(t0, sigma, mu, layout)

@@ -186,11 +186,14 @@ def evaluate_kinematics(
     times: torch.Tensor,  # (N,) sorted within each path's block
     layout: GridLayout,
     accelerations: bool = True,
+    timing: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None,
 ) -> tuple[Kinematics, torch.Tensor | None]:
     """Kinematics of every path of ``batch`` at its own block of sample times, and whether
     a static window is (nearly) outgrown (0-d bool on the device; None for a dynamic one).
     Without ``accelerations`` their field is None (a fit's step: x and v are its Hermite
     segments; the acceleration terms were a third of the forward kinematics' ops).
+    ``timing``: ``batch.timing(layout)`` when the caller has it (one graph of σ, μ, t0 a
+    step, not two).
 
     Sub-movement i is evaluated on the K samples of its support only (gather → evaluate →
     scatter-add): K = ``layout.window`` when static (no host read; a support wider than
@@ -199,7 +202,7 @@ def evaluate_kinematics(
     """
     device = times.device
     n_total = times.shape[0]
-    sigma, mu, t0 = batch.timing(layout)
+    sigma, mu, t0 = timing if timing is not None else batch.timing(layout)
     d = batch.displacements(layout)  # (M, D)
 
     with torch.no_grad():  # window bounds: index bookkeeping, no gradient
@@ -255,11 +258,13 @@ def batch_kinematics(
     return evaluate_kinematics(batch, times, layout)[0]
 
 
-def uniform_times(batch: PlanBatch, layout: GridLayout) -> tuple[torch.Tensor, torch.Tensor]:
+def uniform_times(batch: PlanBatch, layout: GridLayout,
+                  timing: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None
+                  ) -> tuple[torch.Tensor, torch.Tensor]:
     """The uniform grid of each path: t_k = k·T_end/n_p, k = 0..n_p (n_p = counts − 1; on
     the fitting grid n_p = 5·m_p). Returns (times (N,), dt (P,)), carrying the gradient of
-    T_end."""
-    t_end = batch.end_times(layout)  # (P,)
+    T_end; ``timing`` as for :func:`evaluate_kinematics`."""
+    t_end = batch.end_times(layout, timing)  # (P,)
     dt = t_end / (layout.counts - 1).to(t_end.dtype)
     return layout.sample_step.to(dt.dtype) * dt.index_select(0, layout.sample_path), dt
 
