@@ -50,10 +50,11 @@ class OptimisationParams:
     plan. The defaults are the fit's (:class:`inkmotion.kinds.fit.FitParams` says why); a
     kind with other defaults declares them with :func:`inkmotion.jobs.params.redefault`.
     ``earlier`` holds the fit's defaults of spec version 2 (the authors': 300 steps,
-    λ = 20, w_σ = 50) and of versions 3–6 (600 steps decaying to 0.1)."""
+    λ = 20, w_σ = 50), of versions 3–6 (600 steps decaying to 0.1) and of versions 7–12
+    (400 steps)."""
 
-    steps: int = param(400, "Adam steps.", minimum=1, maximum=100_000,
-                       earlier={2: 300, 6: 600})
+    steps: int = param(300, "Adam steps.", minimum=1, maximum=100_000,
+                       earlier={2: 300, 6: 600, 12: 400})
     size: int = param(350, "Canvas longer side, px.", minimum=32, maximum=MAX_CANVAS)
     width: float = param(3.0, "Stroke width, px.", minimum=0.01, maximum=256)
     lambda_smooth: float = param(45.0, "Weight λ of the smoothing (minimum-time) cost.",
