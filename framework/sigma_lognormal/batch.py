@@ -23,6 +23,9 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 #: samples per sub-movement of the fitting grid, n_p = 5·m_p
 SAMPLES_PER_MOVE = 5
 
+#: σ, μ and the onsets t0 of every sub-movement, (M,) each (:meth:`PlanBatch.timing`)
+Timing = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
+
 
 @dataclass(frozen=True)
 class GridLayout:
@@ -175,15 +178,13 @@ class PlanBatch:
         """(P, D) p0 of each path."""
         return self.points.index_select(0, (layout or self.layout()).start_point)
 
-    def timing(self, layout: GridLayout | None = None) -> tuple[torch.Tensor, torch.Tensor,
-                                                                 torch.Tensor]:
+    def timing(self, layout: GridLayout | None = None) -> Timing:
         """σ, μ, t0, each (M,)."""
         sigma, mu = sigma_mu(self.ac, self.T)
         return sigma, mu, onsets(self.delta_t, self.T, sigma, mu, layout or self.layout())
 
     def end_times(self, layout: GridLayout | None = None,
-                  timing: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None
-                  ) -> torch.Tensor:
+                  timing: Timing | None = None) -> torch.Tensor:
         """(P,) T_end of each path; ``timing``: :meth:`timing` of ``layout`` when the
         caller has it (a fit's step uses it twice: one graph, not two)."""
         layout = layout or self.layout()

@@ -33,7 +33,7 @@ from typing import NamedTuple
 import torch
 
 from inkmotion.scalar_tensors import scalar_tensors
-from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
+from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch, Timing
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 EPS = 1e-5
@@ -186,7 +186,7 @@ def evaluate_kinematics(
     times: torch.Tensor,  # (N,) sorted within each path's block
     layout: GridLayout,
     accelerations: bool = True,
-    timing: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None,
+    timing: Timing | None = None,
 ) -> tuple[Kinematics, torch.Tensor | None]:
     """Kinematics of every path of ``batch`` at its own block of sample times, and whether
     a static window is (nearly) outgrown (0-d bool on the device; None for a dynamic one).
@@ -259,7 +259,7 @@ def batch_kinematics(
 
 
 def uniform_times(batch: PlanBatch, layout: GridLayout,
-                  timing: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None
+                  timing: Timing | None = None
                   ) -> tuple[torch.Tensor, torch.Tensor]:
     """The uniform grid of each path: t_k = k·T_end/n_p, k = 0..n_p (n_p = counts − 1; on
     the fitting grid n_p = 5·m_p). Returns (times (N,), dt (P,)), carrying the gradient of
