@@ -22,6 +22,10 @@ Modes (the fit job's ``--targets``):
   below 8 ('hand'; every plan under 'budget', :func:`~inkmotion.fitting.refine.
   growth_margin`), and merges leave at least 75 % ('hand'); without ``rollback`` at most
   ``insert_share`` × the initial m, and every edit is kept (versions 1–3).
+  The tempo ladder (``rapid_within`` > 0, spec 12 on) then takes the last
+  ``tempo_share`` of the steps: rungs with λ raised in turn (:data:`TEMPO_RUNGS`), each
+  judged against the goals; the most rapid rung within them is the result
+  (:func:`_tempo_ladder`).
 - ``auto``: a first fit of ``steps``, then rounds of a quarter of them (at least 50); after
   each, the Chamfer distance of the fit is measured and recorded with the plan's size,
   and the fit stops as soon as the max distance reaches ``max_error`` px; otherwise
@@ -71,7 +75,7 @@ from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
 MAX_AUTO_ROUNDS = 12
-#: the tempo ladder's rungs: λ times these, one after the other (module docstring)
+#: the tempo ladder's rungs: λ times these, one after the other (:func:`_tempo_ladder`)
 TEMPO_RUNGS = (1.5, 2.0, 3.0, 4.0)
 #: a rung is kept only if it shortens T_end (ratio) by at least this: round-off never does
 TEMPO_MARGIN = 0.005
@@ -475,7 +479,7 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
                   refine: RefineSettings, observers: object, record: list[dict[str, Any]],
                   done: int, decay: int, rung_steps: int
                   ) -> Generator[Request, FitResult, tuple[FitResult, int, float]]:
-    """The most rapid motion within the goals (module docstring, "tempo ladder"): from the
+    """The most rapid motion within the goals (the module docstring's default mode): from the
     staged fit's ``result``, rungs of ``rung_steps`` steps each with λ × :data:`TEMPO_RUNGS`
     in turn, each going on from the one before (its Adam state too), at the learning rates
     of the middle of the stages' decay (``decay`` steps). A rung stays within the goals
@@ -510,24 +514,21 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
         rung = yield Request(current.plans, stage, _Offset(observers, done, total),
                              {**current.state, "step": 0}, None, time_weight=factor)
         done, wall, current = done + rung_steps, wall + rung.wall_s, rung
+        entry = {"stage": len(record) + 1, "steps": rung_steps,
+                 "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
+                 "merged_before": 0, "time_weight": factor}
+        record.append(entry)
         if ended:  # the job's steps all run (its progress and recording reach its total)
-            record.append({"stage": len(record) + 1, "steps": rung_steps,
-                           "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
-                           "merged_before": 0, "time_weight": factor, "kept": False,
-                           "why": "after the ladder ended: run, not judged"})
+            entry.update(kept=False, why="after the ladder ended: run, not judged")
             continue
         mean, worst = chamfer_of(strokes, rung.plans)
         ratio = t_end_ratio(plans_of, first.initial_t_end, rung.final_t_end)
         pins = len(pinned_overlaps(rung.plans))
         within = mean <= allowed_mean and worst <= allowed_worst and pins <= pins0
         faster = within and ratio <= best - TEMPO_MARGIN
-        record.append({"stage": len(record) + 1, "steps": rung_steps,
-                       "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
-                       "merged_before": 0, "time_weight": factor,
-                       "chamfer_mean_px": mean, "chamfer_max_px": worst,
-                       "t_end_ratio": ratio, "kept": faster,
-                       "why": _rung_why(within, faster, mean, worst, pins - pins0,
-                                        allowed_mean, allowed_worst)})
+        entry.update(chamfer_mean_px=mean, chamfer_max_px=worst, t_end_ratio=ratio,
+                     kept=faster, why=_rung_why(within, faster, mean, worst, pins - pins0,
+                                                allowed_mean, allowed_worst))
         ended = not within
         if faster:
             result, best = rung, ratio
