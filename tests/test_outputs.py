@@ -21,6 +21,7 @@ from inkmotion.outputs import (
 )
 
 SVG = "{http://www.w3.org/2000/svg}"
+SPEED_SIZE = (1200, 384)  # speed.png, width × height
 
 
 def _plans(dim: int = 2) -> list[MotorPlan]:
@@ -113,17 +114,66 @@ def test_speed_plot(tmp_path: Path) -> None:
     out = tmp_path / "speed.png"
     write_speed_plot(out, _plans())
     img = cv2.imread(str(out), cv2.IMREAD_COLOR)
-    assert img is not None and img.shape[0] > 100 and img.shape[1] > 300
+    assert img is not None and img.shape[:2] == SPEED_SIZE[::-1]
 
 
-def test_speed_plot_many_paths_is_fast(tmp_path: Path) -> None:
-    import time
+def _speed_plot_rows(plans: list[MotorPlan], tmp_path: Path) -> tuple[np.ndarray, tuple]:
+    from inkmotion.outputs.chart import MARGINS
 
-    rng = np.random.default_rng(0)
-    plans = [MotorPlan.from_points(rng.uniform(0, 300, size=(16, 2))) for _ in range(20)]
-    t = time.perf_counter()
     write_speed_plot(tmp_path / "speed.png", plans)
-    assert time.perf_counter() - t < 3.0  # about 1 s; generous for slow CI machines
+    img = cv2.imread(str(tmp_path / "speed.png"), cv2.IMREAD_COLOR).astype(int)
+    left, top, right, bottom = MARGINS
+    width, height = SPEED_SIZE
+    return img[top + 2:height - bottom - 2, left + 2:width - right - 2], (top, height - bottom)
+
+
+def test_speed_plot_draws_the_peak_where_the_axis_says(tmp_path: Path) -> None:
+    """One straight move: the black curve's highest ink is at its peak speed, which the
+    axis puts at 1/1.05 of its height; the blue bell of its only move lies under it."""
+    plan = MotorPlan.from_points([[0.0, 0.0], [200.0, 0.0]], dtype=torch.float64)
+    inside, (top, bottom) = _speed_plot_rows([plan], tmp_path)
+    black = (inside.max(axis=2) < 90).any(axis=1)
+    peak_row = top + 2 + int(np.argmax(black))
+    expected = bottom - (bottom - top) / 1.05
+    assert abs(peak_row - expected) <= 2.5, (peak_row, expected)
+    blue = (inside[..., 0] - inside[..., 2] > 60).any(axis=1)  # B well over R
+    assert blue.sum() > 0.5 * len(blue)
+
+
+def test_speed_plot_bands_every_other_path(tmp_path: Path) -> None:
+    """Three paths: the second lies on a faint grey band, the first and third do not."""
+    plans = [MotorPlan.from_points([[0.0, 0.0], [100.0 + 50 * k, 0.0]], dtype=torch.float64)
+             for k in range(3)]
+    inside, _ = _speed_plot_rows(plans, tmp_path)
+    top_row = inside[2]  # above every curve: only bands or white
+    grey = np.all(np.abs(top_row - 240) <= 2, axis=1)
+    runs = np.flatnonzero(np.diff(grey.astype(int)))
+    assert grey.any() and len(runs) == 2, runs  # one band, inside the box
+    band = slice(runs[0] + 1, runs[1] + 1)
+    ends = np.cumsum([float(p.end_time) for p in plans])
+    gap = 0.03 * ends[-1] + 1e-3
+    x_of = (inside.shape[1] + 4) / (ends[-1] + 2 * gap)  # px a second
+    assert abs((band.start + 2) - (ends[0] + gap) * x_of) <= 3
+    assert abs((band.stop + 2) - (ends[1] + gap) * x_of) <= 3
+
+
+def test_fit_job_does_not_import_matplotlib(tmp_path: Path) -> None:
+    """A fit's outputs are drawn with OpenCV: matplotlib's import and first figure are a
+    sixth of a short fit's time, which a one-off ``inkmotion run fit`` would pay (a timed
+    recording adds human_speeds.png, a second chart)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from inkmotion.jobs.spec import JobSpec; "
+            "from inkmotion.jobs.shell import run_job; "
+            "run_job(JobSpec(kind='fit', inputs={'drawing': 'sample:tempt-1'}, "
+            "params={'steps': 4, 'size': 96}), sys.argv[1]); "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))")
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert {"speed.png", "human_speeds.png"} <= {p.name for p in (tmp_path / "out").iterdir()}
+    assert done.stdout.strip().splitlines()[-1] == "[]"
 
 
 def test_staging_dir_commit_replaces_atomically(tmp_path: Path) -> None:

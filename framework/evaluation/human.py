@@ -294,6 +294,12 @@ def human_agreement(recorded: list[tuple[np.ndarray, np.ndarray]],
     return {"strokes": strokes, "total": total, "tolerance": tolerance, "smooth_s": smooth_s}
 
 
+#: human_speeds.png's width × height, px, and its curves' colours
+PROFILES_SIZE = (1080, 384)
+RECORDED_RGB = (153, 153, 153)
+FIT_RGB = (34, 34, 34)
+
+
 def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.ndarray]],
                         fit: list[tuple[np.ndarray, np.ndarray]]) -> None:
     """PNG of both speed profiles along the trace: per stroke (arc length (n,), speed (n,)).
@@ -302,28 +308,23 @@ def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.nd
     the recorded total arc length, and both profiles are placed on it by their own arc
     length normalised to [0, 1], so the axis runs from 0 to 1. y: each stroke's speed
     divided by that stroke's own peak speed (the two run on different clocks)."""
-    from inkmotion.outputs.figure import agg_figure
+    from inkmotion.outputs.chart import BOLD, THIN, Chart
 
     lengths = np.array([float(a[-1] - a[0]) for a, _ in recorded])
     total = float(lengths.sum()) or 1.0
     starts = np.concatenate(([0.0], np.cumsum(lengths)))[:-1] / total
-    fig = agg_figure(9, 3.2)
-    ax = fig.add_subplot()
-    for i, ((ra, rs), (fa, fs)) in enumerate(zip(recorded, fit, strict=True)):
-        width = lengths[i] / total
-        for arc, speed, colour, label in ((ra, rs, "#999999", "recorded (smoothed)"),
-                                          (fa, fs, "#222222", "ΣΛ fit")):
-            x = starts[i] + width * _normalised(arc)
-            ax.plot(x, speed / max(float(np.max(speed)), 1e-12), color=colour, lw=1.2,
-                    label=label if i == 0 else None)
-        if i:
-            ax.axvline(starts[i], color="#dddddd", lw=0.8, zorder=0)
-    ax.set_xlabel("position along the drawing (arc length, strokes concatenated, 0..1)")
-    ax.set_ylabel("speed / stroke's peak")
-    ax.set_xlim(0, 1)
-    ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
+    chart = Chart(PROFILES_SIZE, 1.0, 1.1, y_ticks_to=1.0,
+                  x_label="position along the drawing (arc length, strokes concatenated, 0..1)",
+                  y_label="speed / stroke's peak")
+    for start in starts[1:]:
+        chart.rule(float(start), (221, 221, 221), THIN)
+    for k, (rgb, label) in enumerate(((RECORDED_RGB, "recorded (smoothed)"),
+                                      (FIT_RGB, "sigma-lognormal fit"))):
+        chart.lines([(starts[i] + lengths[i] / total * _normalised(pair[k][0]),
+                      pair[k][1] / max(float(np.max(pair[k][1])), 1e-12))
+                     for i, pair in enumerate(zip(recorded, fit, strict=True))],
+                    rgb, BOLD, label)
+    chart.write(path)
 
 
 #: mean distance from a recording to a plan's motion, as a share of the canvas's longer

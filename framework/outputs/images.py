@@ -30,17 +30,19 @@ def _array(image: torch.Tensor | np.ndarray) -> np.ndarray:
     return np.clip(np.nan_to_num(a), 0.0, 1.0)
 
 
-def _write(path: str | Path, bgr_or_grey: np.ndarray) -> None:
+def write_image(path: str | Path, bgr_or_grey: np.ndarray) -> None:
+    """Write an 8-bit BGR or grey array to an image file (the suffix picks the format)."""
     if not cv2.imwrite(str(path), bgr_or_grey):
         raise OSError(f"{path}: OpenCV could not write the image (check the folder and suffix).")
 
 
 def write_png(path: str | Path, image: torch.Tensor | np.ndarray) -> None:
     """Coverage (H, W) in [0, 1] as an 8-bit grey PNG, ink black on white."""
-    _write(path, np.round(255.0 * (1.0 - _array(image))).astype(np.uint8))
+    write_image(path, np.round(255.0 * (1.0 - _array(image))).astype(np.uint8))
 
 
-def _bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
+def bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
+    """OpenCV's channel order of an RGB colour."""
     return (rgb[2], rgb[1], rgb[0])
 
 
@@ -59,16 +61,16 @@ def write_overlay(
     t, r = _array(target), _array(rendered)
     assert t.shape == r.shape, (t.shape, r.shape)
     img = np.full(t.shape + (3,), 255.0)
-    img = img * (1.0 - t[..., None]) + np.array(_bgr(TARGET_RGB), float) * t[..., None]
+    img = img * (1.0 - t[..., None]) + np.array(bgr(TARGET_RGB), float) * t[..., None]
     a = RESULT_OPACITY * r[..., None]
-    img = img * (1.0 - a) + np.array(_bgr(RESULT_RGB), float) * a
+    img = img * (1.0 - a) + np.array(bgr(RESULT_RGB), float) * a
     out = np.ascontiguousarray(np.round(img).astype(np.uint8))
     shift = 4  # sub-pixel precision for cv2 drawing
     scale = float(1 << shift)
     for poly in traces or []:
         pts = np.round(np.asarray(poly, dtype=np.float64)[:, :2] * scale).astype(np.int32)
         if len(pts) >= 2:
-            cv2.polylines(out, [pts], False, _bgr(TRACE_RGB), 1, cv2.LINE_AA, shift)
+            cv2.polylines(out, [pts], False, bgr(TRACE_RGB), 1, cv2.LINE_AA, shift)
     if positions is not None:
         groups = [positions] if not isinstance(positions, list) else positions
         for g in groups:
@@ -77,5 +79,5 @@ def write_overlay(
             for x, y in np.asarray(g, dtype=np.float64).reshape(-1, np.shape(g)[-1])[:, :2]:
                 c = (int(round(x * scale)), int(round(y * scale)))
                 cv2.circle(out, c, int(2.5 * scale), (40, 40, 40), -1, cv2.LINE_AA, shift)
-                cv2.circle(out, c, int(1.7 * scale), _bgr(DOT_RGB), -1, cv2.LINE_AA, shift)
-    _write(path, out)
+                cv2.circle(out, c, int(1.7 * scale), bgr(DOT_RGB), -1, cv2.LINE_AA, shift)
+    write_image(path, out)
