@@ -176,4 +176,21 @@ def test_a_captured_run_writes_plain_lines(tmp_path: Path) -> None:
                            "--steps", "20", "--size", "64", "--no-record", "--out",
                            str(tmp_path / "fit")], capture_output=True, text=True, check=True)
     assert "\r" not in done.stderr, done.stderr
-    assert re.search(r"^fit: 20/20 [\d.]+ s, loss=", done.stderr, re.M), done.stderr
+    # the last line is the last step: the 20 announced, or fewer where the tempo ladder
+    # ended the fit early (report.json's steps)
+    steps = json.loads((tmp_path / "fit" / "report.json").read_text())["steps"]
+    assert 16 <= steps <= 20
+    lines = [line for line in done.stderr.splitlines() if line.startswith("fit: ")]
+    assert re.match(rf"fit: {steps}/{steps} [\d.]+ s, loss=", lines[-1]), done.stderr
+
+
+def test_a_log_ends_at_the_step_a_job_ended_on(capsys: pytest.CaptureFixture[str]) -> None:
+    """A job that ends before the steps it announced (a fit's tempo ladder that ends
+    early) still gets its last line, at the step it ended on."""
+    bar = _started(20, plain=True)
+    for step in range(1, 13):
+        bar.on_step(_fit_state(step, 20))
+    bar.on_end({"steps": 12})
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[-1].startswith("fit: 12/12 ") and "loss=1.5" in lines[-1]
+    assert sum(line.startswith("fit: 12/") for line in lines) == 1

@@ -487,8 +487,8 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
     no more than :data:`TEMPO_WORST_GROWTH_PX` beyond the worst before the ladder (at 350
     px, the goals by the rule's rescue margin; a goal the fit already missed: no worse
     than before the ladder) and no more overlaps sit on a clamp bound; the first that does
-    not ends the ladder (the rungs after it still run, unjudged, so a job runs the steps
-    it declared: its progress and recording reach their total). The result is the last
+    not ends the ladder, and the job with it (it then runs fewer steps than it announced:
+    a rung after it would go on from a plan outside the goals). The result is the last
     rung within the goals that shortened the
     T_end ratio by :data:`TEMPO_MARGIN` or more than the one kept before it, else
     ``result``. Each rung is a record entry (``time_weight``, its figures, ``kept``).
@@ -509,7 +509,7 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
     stage = replace(settings, steps=rung_steps, schedule_start=decay // 2,
                     schedule_total=decay)
     total = done + len(TEMPO_RUNGS) * rung_steps
-    current, wall, ended = result, 0.0, False
+    current, wall = result, 0.0
     for factor in TEMPO_RUNGS:
         rung = yield Request(current.plans, stage, _Offset(observers, done, total),
                              {**current.state, "step": 0}, None, time_weight=factor)
@@ -518,9 +518,6 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
                  "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
                  "merged_before": 0, "time_weight": factor}
         record.append(entry)
-        if ended:  # the job's steps all run (its progress and recording reach its total)
-            entry.update(kept=False, why="after the ladder ended: run, not judged")
-            continue
         mean, worst = chamfer_of(strokes, rung.plans)
         ratio = t_end_ratio(plans_of, first.initial_t_end, rung.final_t_end)
         pins = len(pinned_overlaps(rung.plans))
@@ -529,9 +526,10 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
         entry.update(chamfer_mean_px=mean, chamfer_max_px=worst, t_end_ratio=ratio,
                      kept=faster, why=_rung_why(within, faster, mean, worst, pins - pins0,
                                                 allowed_mean, allowed_worst))
-        ended = not within
         if faster:
             result, best = rung, ratio
+        if not within:  # the ladder ends: a rung after it could not be kept
+            break
     return result, done, wall
 
 

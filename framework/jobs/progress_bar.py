@@ -64,6 +64,7 @@ class ProgressBar:
         self._bar: Any = None
         self._shown = -math.inf  # the first step is shown
         self._log: _Log | None = None  # plain mode
+        self._last: StepState | None = None  # the latest step's state
 
     def on_start(self, ctx: RunContext) -> None:
         desc = self.desc or ctx.spec.kind
@@ -76,11 +77,12 @@ class ProgressBar:
         self._bar = tqdm(total=ctx.total_steps, desc=desc, unit="step",
                          dynamic_ncols=True, leave=False, bar_format=BAR_FORMAT)
 
-    def _log_line(self, state: StepState) -> None:
-        """Plain mode: a line when the run has passed its next tenth, or at its end."""
+    def _log_line(self, state: StepState, ended: bool = False) -> None:
+        """Plain mode: a line when the run has passed its next tenth, or at its end
+        (``ended``: the job ended at this step, before the total it announced)."""
         log = self._log
         assert log is not None
-        total = state.total or log.total or 0
+        total = state.step if ended else state.total or log.total or 0
         last = bool(total) and state.step >= total
         share = state.step / total if total else 0.0
         if not last and share < log.next:
@@ -95,6 +97,7 @@ class ProgressBar:
             self._log = None
 
     def on_step(self, state: StepState) -> None:
+        self._last = state
         if self._log is not None:
             self._log_line(state)
             return
@@ -114,6 +117,10 @@ class ProgressBar:
             self.close()
 
     def on_end(self, report: dict) -> None:
+        """A job may end before the steps it announced (a fit's tempo ladder that ends
+        early): its last step is then the last line of a log."""
+        if self._log is not None and self._last is not None:
+            self._log_line(self._last, ended=True)
         self.close()
 
     def close(self) -> None:

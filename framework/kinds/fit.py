@@ -131,7 +131,8 @@ class FitParams(OptimisationParams):
                                 "350 px, scaled with the canvas), the worst within 8 px "
                                 "and at most 2 px beyond where it was, and no overlap "
                                 "lands on a clamp bound; the most rapid "
-                                "such rung is the result (0: no rungs, every step for the "
+                                "such rung is the result, and the fit ends at the first "
+                                "that leaves them (0: no rungs, every step for the "
                                 "stages).", minimum=0, maximum=20,
                                 earlier={11: 0.0, 12: 0.5})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "

@@ -237,8 +237,9 @@ def mark_succeeded(job_id: str, artifact_dir: str, db_url: str | None = None,
                                                              Job.status == "running")
     return _update_where(db_url, *where, status="succeeded", artifact_dir=artifact_dir,
                          finished_at=now, updated_at=now, error=None, lease_owner=None,
-                         lease_until=None, step=Job.total,  # all steps ran, whatever
-                         **values)  # the last progress write said
+                         lease_until=None, step=Job.total,  # complete, whatever the
+                         **values)  # last progress write said (a fit whose tempo ladder
+    # ended early ran fewer steps than it announced: its report.json says how many)
 
 
 def mark_failed(job_id: str, error: str, db_url: str | None = None) -> bool:

@@ -82,6 +82,7 @@ class LiveObserver:
     def __init__(self, live: Live) -> None:
         self.live = live
         self._last = 0.0
+        self._unsent: StepState | None = None  # a step not sent yet (the throttle's)
 
     def _due(self) -> bool:
         return time.monotonic() - self._last >= LIVE_EVERY_S
@@ -99,10 +100,21 @@ class LiveObserver:
         if self.live.cancel.is_set():
             raise JobCancelled(self.live.job_id)
         if not (self._due() or state.step == state.total):
+            self._unsent = state
             return
+        self._emit(state)
+
+    def on_end(self, report: dict) -> None:
+        """A job that ended before the steps it announced (a fit's tempo ladder that ended
+        early) sends its last step, as the step count's end."""
+        if self._unsent is not None:
+            self._emit(self._unsent, ended=True)
+
+    def _emit(self, state: StepState, ended: bool = False) -> None:
         self._last = time.monotonic()
+        self._unsent = None
         event: dict[str, Any] = {"type": "step", "step": int(state.step),
-                                 "total": int(state.total)}
+                                 "total": int(state.step if ended else state.total)}
         shown = state.shown()
         if shown:
             from inkmotion.events import scalars
