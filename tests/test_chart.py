@@ -52,3 +52,23 @@ def test_a_line_lands_where_its_data_says(tmp_path: Path) -> None:
 def test_a_chart_without_room_refuses() -> None:
     with pytest.raises(AssertionError):
         Chart((300, 200), 0.0, 1.0)
+
+
+def test_a_gap_in_the_data_breaks_the_line(tmp_path: Path) -> None:
+    """NaN and infinite values break a line into the runs around them (as matplotlib
+    draws them), never a stroke to a wild pixel."""
+    size = (600, 300)
+    chart = Chart(size, 1.0, 1.0)
+    x = np.linspace(0.0, 1.0, 11)
+    y = np.full(11, 0.5)
+    y[5], y[8] = np.nan, np.inf
+    chart.lines([(x, y)], (200, 0, 0))
+    chart.write(tmp_path / "c.png")
+    img = cv2.imread(str(tmp_path / "c.png"), cv2.IMREAD_COLOR).astype(int)
+    left, top, right, bottom = MARGINS
+    red = ((img[..., 2] - img[..., 0] > 100) & (img[..., 2] > 150)).any(axis=0)
+    column = [round(left + v * (size[0] - right - left)) for v in x]
+    assert red[column[2]] and red[column[6] + 5] and red[column[9] + 5]
+    assert not red[column[5]] and not red[column[8]]  # the gaps
+    rows = np.flatnonzero(((img[..., 2] - img[..., 0] > 100) & (img[..., 2] > 150)).any(axis=1))
+    assert rows.max() - rows.min() <= 3  # nothing drawn towards the infinity

@@ -57,7 +57,7 @@ class Chart:
                  y_ticks_to: float | None = None) -> None:
         """``y_ticks_to``: the highest y a tick may mark (default ``y_max``), so a chart
         with headroom above its data does not label the headroom."""
-        assert x_max > 0 and y_max > 0, (x_max, y_max)
+        assert 0 < x_max < math.inf and 0 < y_max < math.inf, (x_max, y_max)
         s = SUPERSAMPLE
         self.size = size
         self.x_max, self.y_max = float(x_max), float(y_max)
@@ -77,9 +77,17 @@ class Chart:
         _, top, _, bottom = self.box
         return bottom - np.asarray(y, dtype=float) / self.y_max * (bottom - top)
 
-    def _points(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """(k, 2) int32 points at 1/16 px (OpenCV's ``shift`` = 4)."""
-        return np.round(16.0 * np.column_stack((self._x(x), self._y(y)))).astype(np.int32)
+    def _points(self, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
+        """(k, 2) int32 points at 1/16 px (OpenCV's ``shift`` = 4), one array per run of
+        finite values (a NaN or an infinity breaks the line, as in matplotlib), each
+        point kept within a canvas's reach of the axes."""
+        px, py = self._x(x), self._y(y)
+        ok = np.isfinite(px) & np.isfinite(py)
+        reach = 4.0 * max(self.canvas.shape)
+        xy = np.clip(np.column_stack((px, py)), -reach, reach)
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
+        return [np.round(16.0 * xy[i:j]).astype(np.int32)
+                for i, j in zip(edges[::2], edges[1::2], strict=True) if j - i > 1]
 
     def band(self, x0: float, x1: float, grey: int = 240) -> None:
         """A faint vertical band over x in [x0, x1], the axes' full height."""
@@ -96,7 +104,8 @@ class Chart:
     def lines(self, curves: Sequence[tuple[np.ndarray, np.ndarray]], rgb: tuple[int, int, int],
               weight: int = THIN, label: str | None = None) -> None:
         """Polylines (x (n,), y (n,)) in ``rgb``; ``label``: their entry in the legend."""
-        points = [self._points(x, y) for x, y in curves if len(x) > 1]
+        points = [run for x, y in curves for run in self._points(np.asarray(x, float),
+                                                                 np.asarray(y, float))]
         if points:
             cv2.polylines(self.canvas, points, False, bgr(rgb), weight, cv2.LINE_AA, 4)
         if label:

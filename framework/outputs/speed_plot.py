@@ -8,6 +8,7 @@ every other one. Drawn with OpenCV (:class:`~inkmotion.outputs.chart.Chart`).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -61,10 +62,11 @@ def write_speed_plot(path: str | Path, plans: list[MotorPlan]) -> None:
     assert plans, "at least one plan"
     plans = [on_cpu(p) for p in plans]
     curves, starts = _profiles(plans)
-    top = max(max(float(total.max(initial=0.0)), float(parts.max(initial=0.0)))
-              for _, total, parts in curves)
+    top = max(float(np.max(v, initial=0.0, where=np.isfinite(v)))
+              for _, total, parts in curves for v in (total, parts))
     top = top if top > 0 else 1.0 / HEADROOM
-    chart = Chart(SIZE, max(starts[-1], 1e-3), HEADROOM * top, y_ticks_to=top,
+    x_max = starts[-1] if math.isfinite(starts[-1]) and starts[-1] > 1e-3 else 1e-3
+    chart = Chart(SIZE, x_max, HEADROOM * top, y_ticks_to=top,
                   title=f"{len(plans)} path(s), {sum(p.m for p in plans)} lognormals",
                   x_label="time (s)", y_label="speed (px/s)")
     for k in range(1, len(plans), 2):
