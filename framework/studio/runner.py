@@ -82,7 +82,7 @@ class LiveObserver:
     def __init__(self, live: Live) -> None:
         self.live = live
         self._last = 0.0
-        self._unsent: StepState | None = None  # a step not sent yet (the throttle's)
+        self._latest: StepState | None = None  # the job's latest step
 
     def _due(self) -> bool:
         return time.monotonic() - self._last >= LIVE_EVERY_S
@@ -99,20 +99,19 @@ class LiveObserver:
     def on_step(self, state: StepState) -> None:
         if self.live.cancel.is_set():
             raise JobCancelled(self.live.job_id)
+        self._latest = state
         if not (self._due() or state.step == state.total):
-            self._unsent = state
             return
         self._emit(state)
 
     def on_end(self, report: dict) -> None:
         """A job that ended before the steps it announced (a fit's tempo ladder that ended
-        early) sends its last step, as the step count's end."""
-        if self._unsent is not None:
-            self._emit(self._unsent, ended=True)
+        early) sends its last step once more, as the step count's end."""
+        if self._latest is not None and self._latest.step != self._latest.total:
+            self._emit(self._latest, ended=True)
 
     def _emit(self, state: StepState, ended: bool = False) -> None:
         self._last = time.monotonic()
-        self._unsent = None
         event: dict[str, Any] = {"type": "step", "step": int(state.step),
                                  "total": int(state.step if ended else state.total)}
         shown = state.shown()
