@@ -318,12 +318,12 @@ def plot_speed_profiles(path: str | Path, recorded: list[tuple[np.ndarray, np.nd
                   y_label="speed / stroke's peak")
     for start in starts[1:]:
         chart.rule(float(start), (221, 221, 221), THIN)
-    for k, (rgb, label) in enumerate(((RECORDED_RGB, "recorded (smoothed)"),
-                                      (FIT_RGB, "sigma-lognormal fit"))):
-        chart.lines([(starts[i] + lengths[i] / total * _normalised(pair[k][0]),
-                      pair[k][1] / max(float(np.max(pair[k][1])), 1e-12))
-                     for i, pair in enumerate(zip(recorded, fit, strict=True))],
-                    rgb, BOLD, label)
+    assert len(recorded) == len(fit), (len(recorded), len(fit))
+    for profiles, rgb, label in ((recorded, RECORDED_RGB, "recorded (smoothed)"),
+                                 (fit, FIT_RGB, "sigma-lognormal fit")):
+        chart.lines([(starts[i] + lengths[i] / total * _normalised(arc),
+                      speed / max(float(np.max(speed)), 1e-12))
+                     for i, (arc, speed) in enumerate(profiles)], rgb, BOLD, label)
     chart.write(path)
 
 

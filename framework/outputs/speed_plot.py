@@ -31,8 +31,8 @@ HEADROOM = 1.05
 
 def _profiles(plans: list[MotorPlan]) -> tuple[list[tuple[np.ndarray, np.ndarray, np.ndarray]],
                                                list[float]]:
-    """Per plan: times (n,) on the shared axis, total speed (n,), each move's (m, n); and
-    the plans' starts on that axis, then where the last one ends."""
+    """Per plan (float64, on the CPU): times (n,) on the shared axis, total speed (n,),
+    each move's (m, n); and the plans' starts on that axis, then where the last one ends."""
     ends = [float(p.end_time) for p in plans]
     gap = 0.03 * sum(ends) + 1e-3
     curves, starts = [], []
@@ -41,7 +41,7 @@ def _profiles(plans: list[MotorPlan]) -> tuple[list[tuple[np.ndarray, np.ndarray
         n = max(MIN_SAMPLES, SAMPLES_PER_MOVE * plan.m)
         with torch.no_grad():
             t = torch.linspace(0.0, t_end, n, dtype=torch.float64)
-            total, parts = speed_profile(on_cpu(plan, torch.float64), t)
+            total, parts = speed_profile(plan, t)
         curves.append((start + t.numpy(), total.numpy(), parts.numpy()))
         starts.append(start)
         start += t_end + gap
@@ -60,7 +60,7 @@ def _bell(x: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray] | Non
 def write_speed_plot(path: str | Path, plans: list[MotorPlan]) -> None:
     """Write the speed profiles of ``plans`` (time in s, speed in px/s) to an image file."""
     assert plans, "at least one plan"
-    plans = [on_cpu(p) for p in plans]
+    plans = [on_cpu(p, torch.float64) for p in plans]
     curves, starts = _profiles(plans)
     top = max(float(np.max(v, initial=0.0, where=np.isfinite(v)))
               for _, total, parts in curves for v in (total, parts))
