@@ -156,15 +156,28 @@ def test_a_drawing_too_small_for_its_pen_says_which_size_gives_it_room(tmp_path:
     assert "look for a stray point far from the rest" in said and "--size" not in said
 
 
-def test_the_report_says_how_many_turns_sit_on_their_quarter_circle(tmp_path: Path) -> None:
-    """δ clamped at ±π/2 (the most one arc may turn) is where the model's curvature limit
-    binds: report.json gives its share, as it does the overlaps' on a bound."""
+def _deltas(folder: Path) -> list[float]:
+    plan = json.loads((folder / "plan.json").read_text())
+    return [d for path in plan["paths"] for d in path["delta"]]
+
+
+def test_the_report_says_how_many_turns_sit_on_their_clamp(tmp_path: Path) -> None:
+    """δ clamped at ±--max-turn (the most one arc may turn) is where the model's curvature
+    limit binds: report.json gives its share, as it does the overlaps' on a bound. At the
+    authors' quarter circle (90°) tempt-3's hooks sit on it; the default half circle lets
+    them turn further, and fewer sit on their clamp."""
     import math
 
-    report, _ = _fit("sample:tempt-3", tmp_path / "t3", "--steps", "60")
-    plan = json.loads((tmp_path / "t3" / "plan.json").read_text())
-    deltas = [d for path in plan["paths"] for d in path["delta"]]
+    quarter, _ = _fit("sample:tempt-3", tmp_path / "t3", "--steps", "60", "--max-turn", "90")
+    deltas = _deltas(tmp_path / "t3")
     at = sum(abs(abs(d) - math.pi / 2) <= 1e-6 for d in deltas)
-    assert report["delta_at_clamp"] == pytest.approx(at / len(deltas))
-    assert report["metrics"]["delta_at_clamp"] == report["delta_at_clamp"]
+    assert max(abs(d) for d in deltas) <= math.pi / 2 + 1e-6
+    assert quarter["delta_at_clamp"] == pytest.approx(at / len(deltas))
+    assert quarter["metrics"]["delta_at_clamp"] == quarter["delta_at_clamp"]
     assert at > 0  # tempt-3's hooks turn as far as an arc may
+    half, _ = _fit("sample:tempt-3", tmp_path / "t3h", "--steps", "60")
+    deltas = _deltas(tmp_path / "t3h")
+    assert max(abs(d) for d in deltas) > math.pi / 2  # a hook turns past a quarter circle
+    at_half = sum(abs(abs(d) - math.pi) <= 1e-6 for d in deltas)
+    assert half["delta_at_clamp"] == pytest.approx(at_half / len(deltas))
+    assert half["delta_at_clamp"] < quarter["delta_at_clamp"]

@@ -66,15 +66,13 @@ def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
     return len(pinned_overlaps(plans, tolerance)) / overlaps if overlaps else 0.0
 
 
-def delta_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
-    """Share of the turning angles δ_i within ``tolerance`` of their clamp ±π/2 (a quarter
-    circle, the most one sub-movement's arc may turn in a fit): where the model's
-    curvature limit binds (a tight loop or hook drawn with too few targets); 0 for no
-    sub-movement."""
-    from inkmotion.sigma_lognormal.params import DELTA_RANGE
-
+def delta_at_clamp(plans: list[Any], limit: float, tolerance: float = 1e-6) -> float:
+    """Share of the turning angles δ_i within ``tolerance`` of their clamp ±``limit``
+    (radians: the most one sub-movement's arc may turn in the fit, its ``--max-turn``):
+    where the model's curvature limit binds (a tight loop or hook drawn with too few
+    targets); 0 for no sub-movement."""
     deltas = [d for plan in plans for d in plan.delta.detach().cpu().double().tolist()]
-    at = sum(1 for d in deltas if min(abs(d - b) for b in DELTA_RANGE) <= tolerance)
+    at = sum(1 for d in deltas if abs(abs(d) - limit) <= tolerance)
     return at / len(deltas) if deltas else 0.0
 
 

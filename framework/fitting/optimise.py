@@ -3,7 +3,8 @@
 Each step evaluates the :class:`~inkmotion.fitting.objective.Objective` (ΣΛ kinematics →
 Hermite Bézier segments → render → image losses + λ·L_smooth + canvas term), then takes an
 Adam step with per-parameter learning rates and a cosine decay, and applies the clamps
-Δt ∈ [0.1, 0.9], δ ∈ [−π/2, π/2], Ac ∈ [1e-4, 0.1] (the authors' defaults).
+Δt ∈ [0.1, 0.9], δ ∈ [−``delta_limit``, ``delta_limit``], Ac ∈ [1e-4, 0.1] (the authors'
+defaults, with their δ limit π/2; a fit's ``--max-turn`` sets its own).
 
 A 3-D plan (x, y, r: the stroke radius in px, the 2.5D extension) is optimised as two
 leaves, the targets' x, y (N, 2) at ``lr_points`` and their radii r (N, 1) at
@@ -30,7 +31,12 @@ from inkmotion.events import StepState, scalars, wants
 from inkmotion.fitting.objective import Evaluation, Objective
 from inkmotion.rng import restore_rng
 from inkmotion.sigma_lognormal.batch import PlanBatch
-from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_RANGE, DELTA_T_RANGE
+from inkmotion.sigma_lognormal.params import (
+    AC_RANGE,
+    DELTA_RANGE,
+    DELTA_T_RANGE,
+    delta_range,
+)
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 
@@ -54,6 +60,9 @@ class OptimiserSettings:
     #: both (the generation kinds' --lr-radius, --radius-min, --radius-max say why theirs)
     lr_radius: float = 0.0
     radius_range: tuple[float, float] | None = None
+    #: the most |δ| (radians) one sub-movement's arc may turn: the clamp of the turning
+    #: angles (the fitting kinds pass their ``max_turn``; here the authors' quarter circle)
+    delta_limit: float = DELTA_RANGE[1]
 
 
 @dataclass
@@ -276,7 +285,7 @@ class _Leaves:
     def clamp(self, settings: OptimiserSettings) -> None:
         """The clamps of Δt, δ, Ac (and a 3-D plan's radius), in place."""
         self.leaves["delta_t"].clamp_(*DELTA_T_RANGE)
-        self.leaves["delta"].clamp_(*DELTA_RANGE)
+        self.leaves["delta"].clamp_(*delta_range(settings.delta_limit))
         self.leaves["ac"].clamp_(*AC_RANGE)
         if self.three:
             self.leaves["r"].clamp_(*settings.radius_range)  # type: ignore[misc]
@@ -412,7 +421,8 @@ def _adam_together(fits: list[_Leaves], factor: float) -> None:
 
 def _clamp_together(fits: list[_Leaves], settings: OptimiserSettings) -> None:
     """:meth:`_Leaves.clamp` of every fit, one multi-tensor op per bound."""
-    bounds = [("delta_t", DELTA_T_RANGE), ("delta", DELTA_RANGE), ("ac", AC_RANGE)]
+    bounds = [("delta_t", DELTA_T_RANGE), ("delta", delta_range(settings.delta_limit)),
+              ("ac", AC_RANGE)]
     if fits[0].three:
         bounds.append(("r", settings.radius_range))
     for name, (lo, hi) in bounds:

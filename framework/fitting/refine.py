@@ -53,7 +53,7 @@ from scipy.spatial import cKDTree
 
 from inkmotion.geometry.chamfer import densify
 from inkmotion.sigma_lognormal.batch import PlanBatch
-from inkmotion.sigma_lognormal.params import DELTA_RANGE, DELTA_T_RANGE
+from inkmotion.sigma_lognormal.params import DELTA_RANGE, DELTA_T_RANGE, delta_range
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: |Δt − floor| below which an overlap counts as pinned at the floor
@@ -204,15 +204,16 @@ def split_move(plan: MotorPlan, i: int, q: np.ndarray, keep_time: bool = False) 
     return _rebuild(p, points, delta_t, delta, twice(p.ac), twice(p.T))
 
 
-def merge_move(plan: MotorPlan, i: int) -> MotorPlan:
+def merge_move(plan: MotorPlan, i: int, delta_limit: float = DELTA_RANGE[1]) -> MotorPlan:
     """``plan`` with sub-movement ``i`` (0-based, ≥ 1) merged into i − 1: the target p_i
-    between them removed, δ_{i−1} + δ_i (clamped) on the merged one (module docstring)."""
+    between them removed, δ_{i−1} + δ_i (clamped to ±``delta_limit``, the fit's own clamp)
+    on the merged one (module docstring)."""
     p = plan.detached()
     keep_moves = [j for j in range(p.m) if j != i]
     keep_points = [j for j in range(p.m + 1) if j != i]  # point i joins i − 1 and i
     delta = p.delta.clone()
     delta[i - 1] = delta[i - 1] + delta[i]
-    delta = delta.clamp(*DELTA_RANGE)
+    delta = delta.clamp(*delta_range(delta_limit))
     idx = torch.as_tensor(keep_moves, device=p.points.device)
     return _rebuild(p, p.points[torch.as_tensor(keep_points, device=p.points.device)],
                     p.delta_t[idx], delta[idx], p.ac[idx], p.T[idx])
@@ -264,12 +265,13 @@ def salient_targets(plan: MotorPlan, strokes: list[np.ndarray], size: float) -> 
 
 
 def merge_pinned(plan: MotorPlan, keep: set[int] | None = None,
-                 limit: int | None = None) -> tuple[MotorPlan, int]:
+                 limit: int | None = None, delta_limit: float = DELTA_RANGE[1]
+                 ) -> tuple[MotorPlan, int]:
     """``plan`` with the pairs of sub-movements whose second Δt sits at the floor merged
     into one (module docstring), and how many were merged (at most ``limit``); pairs are
     taken from the last to the first, so a merged pair is not merged again in the same
     edit. Targets whose index is in ``keep`` (salient corners, :func:`salient_targets`)
-    are never removed."""
+    are never removed; ``delta_limit``: :func:`merge_move`'s."""
     p = plan.detached()
     floor = DELTA_T_RANGE[0]
     pinned = ((p.delta_t - floor).abs() <= FLOOR_TOLERANCE).tolist()
@@ -280,7 +282,7 @@ def merge_pinned(plan: MotorPlan, keep: set[int] | None = None,
         if limit is not None and merged >= limit:
             break
         if pinned[i]:
-            p, merged = merge_move(p, i), merged + 1
+            p, merged = merge_move(p, i, delta_limit), merged + 1
             pinned[i - 1] = False  # one merge per pair: i − 1 now holds both
     return p, merged
 

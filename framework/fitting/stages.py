@@ -71,6 +71,7 @@ from inkmotion.fitting.refine import (
     salient_targets,
     worst_misses,
 )
+from inkmotion.sigma_lognormal.params import DELTA_RANGE
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 #: the most rounds an ``auto`` fit runs
@@ -163,8 +164,8 @@ def _split(total: int, first_share: float, rounds: int) -> list[int]:
 
 def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
          above: float, limit: int, size: float = 350.0,
-         fewest: int = 0, shared_time: bool | None = None
-         ) -> tuple[list[MotorPlan], int, int]:
+         fewest: int = 0, shared_time: bool | None = None,
+         delta_limit: float = DELTA_RANGE[1]) -> tuple[list[MotorPlan], int, int]:
     """Insert at most ``limit`` targets at the worst misses above ``above`` px (and, with
     ``s.strays``, where the fit strays beyond the goal's max distance from the ink), then merge
     pinned pairs (keeping the salient corners of the input on a ``size``-px canvas when
@@ -172,7 +173,8 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
     plans, inserted and merged counts. ``shared_time`` (default: the sparsity rule's): a
     split sub-movement's halves share its time (:func:`~inkmotion.fitting.refine.
     split_move`), else each copies its overlap; a miss beyond the goal's max distance
-    (8 px at 350) always gets halves with time of their own."""
+    (8 px at 350) always gets halves with time of their own. A merged pair's turning angle
+    is clamped to ±``delta_limit`` (the fit's own clamp)."""
     from inkmotion.outputs.sampling import on_cpu
 
     device, dtype = plans[0].points.device, plans[0].points.dtype
@@ -188,7 +190,8 @@ def edit(plans: list[MotorPlan], strokes: list[np.ndarray], s: RefineSettings,
         edited = []
         for p in cpu:
             merged_plan, k = merge_pinned(p, salient_targets(p, strokes, size)
-                                          if s.protect_corners else None, max(0, room))
+                                          if s.protect_corners else None, max(0, room),
+                                          delta_limit)
             edited.append(merged_plan)
             room, merged = room - k, merged + k
         cpu = edited
@@ -726,7 +729,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
                                            replace(refine, merge=allow_merge), above, limit,
                                            size,
                                            fewest_moves(initial_moves, refine.rule.min_kept),
-                                           None if not edits.sequential else False)
+                                           None if not edits.sequential else False,
+                                           settings.delta_limit)
         added += inserted
         if rollback:
             if inserted or merged:

@@ -21,6 +21,7 @@ parameter classes at start-up.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -71,6 +72,10 @@ class OptimisationParams:
                          minimum=0)
     lr_final: float = param(0.3, "Cosine decay of the learning rates to this fraction.",
                             minimum=0, maximum=1, earlier={6: 0.1})
+    max_turn: float = param(180.0, "The most one sub-movement's arc may turn, degrees: the "
+                            "clamp of |δ| (180: a half circle, a hook or a small loop in "
+                            "one movement; 90: the authors' quarter circle).",
+                            minimum=1, maximum=180, earlier={13: 90.0})
     samples_per_move: int = param(5, "Bézier segments per lognormal on the fitting grid.",
                                   minimum=1, maximum=100)
     renderer: PluginChoice = plugin_param("renderer", "raster", "Renderer plugin.")
@@ -95,7 +100,8 @@ class OptimisationParams:
 
         return OptimiserSettings(self.steps, self.lr_points, self.lr_delta_t, self.lr_delta,
                                  self.lr_ac, self.lr_final, lr_radius=lr_radius,
-                                 radius_range=radius_range)
+                                 radius_range=radius_range,
+                                 delta_limit=math.radians(self.max_turn))
 
 
 def image_losses(job: Job, reference: Reference) -> dict[str, Any]:

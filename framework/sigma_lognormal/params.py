@@ -20,8 +20,16 @@ from inkmotion.scalar_tensors import scalar_tensors
 #: the optimiser's clamps (the authors' defaults); the renderer and kinematics plan
 #: their static sizes from the same bounds
 DELTA_T_RANGE = (0.1, 0.9)
+#: the authors' clamp of the turning angle δ: a quarter circle. A fit's own clamp is its
+#: ``max_turn`` (:class:`inkmotion.kinds.optimisation.OptimisationParams`,
+#: :func:`delta_range`)
 DELTA_RANGE = (-math.pi / 2, math.pi / 2)
 AC_RANGE = (1e-4, 0.1)
+
+
+def delta_range(limit: float) -> tuple[float, float]:
+    """The clamp (−limit, limit) of the turning angles δ, ``limit`` in radians."""
+    return (-limit, limit)
 
 if TYPE_CHECKING:
     from inkmotion.sigma_lognormal.batch import GridLayout
