@@ -1312,7 +1312,14 @@ def test_a_fit_from_a_picture_is_judged_against_the_picture(tmp_path: Path) -> N
     assert report_mismatches(report, documented_keys("fit")) == []  # docs/formats.md
     stored = json.loads((out / "input.json").read_text())["traces"]
     assert len(stored) == ex["strokes"]
-    assert report["delta_t_at_clamp"] < 0.5 and report["moves"] <= 4 * ex["strokes"] + 8
+    assert report["delta_t_at_clamp"] < 0.5
+    # sparse as a hand: the initial plan about one target per salient stroke piece, and
+    # the plan edits within the 'hand' rule's growth of it (1.25×, +2 below 8 targets)
+    from inkmotion.fitting.refine import SPARSITY, growth_margin
+
+    initial = report["stages"][0]["moves"]
+    assert initial <= 4 * ex["strokes"] + 8
+    assert report["moves"] <= initial + growth_margin(initial, SPARSITY["hand"])
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared (the development set)")
