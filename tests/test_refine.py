@@ -81,6 +81,20 @@ def test_merge_removes_the_junction_of_a_pinned_pair() -> None:
     assert k == 1 and merged_chain.m == 2  # one merge per pair: 2 and 3 are not both merged
 
 
+def test_a_merged_pair_turns_as_far_as_the_fit_lets_one_arc_turn() -> None:
+    """The merged sub-movement's δ_{i−1} + δ_i is clamped to the fit's own limit (its
+    --max-turn): the authors' quarter circle by default, a half circle at spec 14."""
+    import math
+
+    p = plan_through([[0, 0], [10, 0], [20, 0]])
+    p.delta[:] = torch.tensor([1.2, 1.1], dtype=torch.float64)
+    p.delta_t[:] = torch.tensor([1.0, 0.1], dtype=torch.float64)
+    assert merge_pinned(p)[0].delta.tolist() == pytest.approx([math.pi / 2])
+    assert merge_pinned(p, delta_limit=math.pi)[0].delta.tolist() == pytest.approx([2.3])
+    p.delta[:] = torch.tensor([-2.0, -1.9], dtype=torch.float64)
+    assert merge_pinned(p, delta_limit=math.pi)[0].delta.tolist() == pytest.approx([-math.pi])
+
+
 def test_hand_sparsity_keeps_a_plan_within_its_density_band() -> None:
     """'hand': a plan may grow by 25 % of its initial count, +2 only below 8 (the authors'
     density goal); merges leave at least 75 %; 'budget' (spec 4) gave every plan the +2."""
