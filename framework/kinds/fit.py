@@ -17,7 +17,6 @@ Importing this module imports no torch (the command line lists kinds at once).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -529,7 +528,7 @@ def _write(job: Job, traces: Any, staged: StagedFit, canvas: tuple[int, int],
     metrics.update(chamfer_mean_px=chamfer_mean, chamfer_max_px=chamfer_max,
                    t_end_ratio_multi=t_end_ratio_multi(staged),
                    delta_t_at_clamp=delta_t_at_clamp(plans),
-                   delta_at_clamp=delta_at_clamp(plans, math.radians(job.params.max_turn)),
+                   delta_at_clamp=delta_at_clamp(plans, job.params.delta_limit),
                    fit_speed_peaks=fit_speed_peaks(drawing))
     report.update(t_end_ratio_multi=metrics["t_end_ratio_multi"],
                   chamfer_mean_px=chamfer_mean, chamfer_max_px=chamfer_max,

@@ -82,6 +82,11 @@ class OptimisationParams:
     spray_preview: bool = param(False, "Also write spray.png, the spray-paint preview of "
                                 "the result (seeded by the job's seed).")
 
+    @property
+    def delta_limit(self) -> float:
+        """``max_turn`` in radians: the clamp of |δ| (the optimiser's ``delta_limit``)."""
+        return math.radians(self.max_turn)
+
     def weights(self, *, smooth_over: str = "path", w_trace: float = 0.0) -> Weights:
         """The objective's weights (:class:`inkmotion.fitting.objective.Weights`);
         ``smooth_over`` and ``w_trace`` for the kinds that declare them (the others use
@@ -101,7 +106,7 @@ class OptimisationParams:
         return OptimiserSettings(self.steps, self.lr_points, self.lr_delta_t, self.lr_delta,
                                  self.lr_ac, self.lr_final, lr_radius=lr_radius,
                                  radius_range=radius_range,
-                                 delta_limit=math.radians(self.max_turn))
+                                 delta_limit=self.delta_limit)
 
 
 def image_losses(job: Job, reference: Reference) -> dict[str, Any]:
