@@ -43,7 +43,7 @@ from inkmotion.sigma_lognormal.batch import PlanBatch
 
 #: the image loss alone (the engine keeps no defaults of its own)
 IMAGE_ONLY = Weights(lambda_smooth=0.0, w_image=1.0, w_sigma=50.0, w_canvas=1.0,
-                     samples_per_move=5, smooth_over="path", w_trace=0.0)
+                     samples_per_move=5, smooth_over="path", w_trace=0.0, w_floor=0.0)
 
 TINY = str(Path(__file__).parent / "data" / "clip" / "tiny-vit.json")
 CANVAS = 64

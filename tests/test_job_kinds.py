@@ -124,10 +124,14 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     assert (v12["rapid_within"], v13["rapid_within"]) == (0.5, 0.55)
     v14 = full({"version": 14, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     assert (v13["max_turn"], v14["max_turn"]) == (90.0, 180.0)  # a half circle per arc
+    v15 = full({"version": 15, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    assert (v14["lr_ac"], v15["lr_ac"]) == (0.0, 0.003)  # the lognormals' shapes learn
+    assert (v14["w_floor"], v15["w_floor"]) == (0.0, 0.0064)  # and Δt keeps off its floor
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version
     assert tag["max_turn"] == 90.0  # and the authors' quarter circle
+    assert tag["lr_ac"] == 0.0 and "w_floor" not in tag  # fixed shapes, no floor barrier
 
 
 def test_job_json_holds_every_parameter_and_option() -> None:

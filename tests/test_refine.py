@@ -500,7 +500,7 @@ def test_a_rungs_time_weight_lasts_for_the_rung_alone() -> None:
     from inkmotion.fitting.stages import _time_weighted
 
     weights = Weights(lambda_smooth=45.0, w_image=1.0, w_sigma=10.0, w_canvas=1.0,
-                      samples_per_move=5, smooth_over="pooled", w_trace=0.0)
+                      samples_per_move=5, smooth_over="pooled", w_trace=0.0, w_floor=0.0)
     objective = Objective(renderer=None, image_losses={}, canvas=(10, 10),  # type: ignore
                           weights=weights)
     with _time_weighted(objective, 3.0):

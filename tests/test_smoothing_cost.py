@@ -1,13 +1,20 @@
 """The minimum-time cost L_smooth (fitting.losses.smoothing_cost): T_end divided by the
 plan's own sub-movement counts, or by fixed ones (a fit's initial plan, spec 12), so a
-plan edit's new targets do not make the motion's time cheaper."""
+plan edit's new targets do not make the motion's time cheaper; the overlaps' floor
+barrier (spec 15), which keeps Δt off its clamp floor from inside."""
 
 from __future__ import annotations
 
 import pytest
 import torch
 
-from inkmotion.fitting.losses import smoothing_cost
+from inkmotion.fitting.losses import (
+    FLOOR_BAND,
+    FLOOR_EPSILON,
+    floor_barrier,
+    smoothing_cost,
+    smoothing_costs,
+)
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
@@ -61,7 +68,7 @@ def test_an_objective_refuses_counts_for_other_paths():
     from inkmotion.fitting.objective import Objective, Weights
 
     weights = Weights(lambda_smooth=45.0, w_image=0.0, w_sigma=10.0, w_canvas=1.0,
-                      samples_per_move=5, smooth_over="pooled", w_trace=0.0)
+                      samples_per_move=5, smooth_over="pooled", w_trace=0.0, w_floor=0.0)
     objective = Objective(renderer=None, image_losses={}, canvas=(100, 100),  # type: ignore
                           weights=weights, time_moves=[2, 2, 2])
     with pytest.raises(ValueError, match="3 paths, the plans 2"):
@@ -85,3 +92,60 @@ def test_a_fit_divides_time_by_its_initial_plans_counts_from_spec_12(tmp_path, v
     problem, _ = _prepare(job)
     expected = tuple(plan.m for plan in problem.plans) if fixed else None
     assert problem.objective.time_moves == expected
+
+
+def test_the_floor_barrier_acts_only_near_the_floor_and_pushes_off_it():
+    floor = 0.1
+    gaps = torch.tensor([0.0, 0.005, 0.02, FLOOR_BAND - FLOOR_EPSILON - 1e-9, 0.06, 0.8],
+                        dtype=torch.float64)
+    delta_t = (floor + gaps).requires_grad_(True)
+    b = floor_barrier(delta_t, torch.ones_like(delta_t))
+    b.sum().backward()
+    b, grad = b.detach(), delta_t.grad
+    assert torch.isfinite(b).all() and torch.isfinite(grad).all()
+    assert (b[:3] > 0).all() and b[4:].eq(0).all() and grad[4:].eq(0).all()
+    assert float(b[3]) == pytest.approx(0.0, abs=1e-12)  # B and B′ vanish at the band's edge
+    assert float(grad[3]) == pytest.approx(0.0, abs=1e-6)
+    assert (grad[:3] < 0).all() and grad[0] < grad[1] < grad[2]  # the harder the nearer
+    unused = floor_barrier(delta_t.detach(), torch.zeros_like(delta_t))
+    assert unused.eq(0).all()  # each path's Δt_1 sets no onset
+
+
+@pytest.mark.parametrize("over", ["pooled", "drawing", "path"])
+def test_the_barrier_settles_an_overlap_where_it_meets_the_time_costs_pull(over):
+    """Time cost alone (w_σ = 0) against the barrier: Δt_2 of a two-move path stops where
+    T_2·g² + w·g − w·band = 0 (g = Δt − floor + ε), the same for every form of the cost."""
+    w, T = 0.0064, 0.3
+    g = (-w + (w * w + 4 * T * w * FLOOR_BAND) ** 0.5) / (2 * T)
+    plan = MotorPlan(points=torch.tensor([[0.0, 0.0], [50.0, 0.0], [50.0, 40.0]],
+                                         dtype=torch.float64),
+                     delta_t=torch.tensor([0.9, 0.1 + g - FLOOR_EPSILON], dtype=torch.float64),
+                     delta=torch.zeros(2, dtype=torch.float64),
+                     ac=torch.full((2,), 0.05, dtype=torch.float64),
+                     T=torch.full((2,), T, dtype=torch.float64))
+    batch = PlanBatch.from_plans([plan])
+    batch.delta_t.requires_grad_(True)
+    layout = batch.layout()
+    cost = smoothing_cost(batch, batch.end_times(layout), 0.0, layout, over, w_floor=w)
+    cost.backward()
+    assert float(batch.delta_t.grad[1]) == pytest.approx(0.0, abs=1e-9)
+    batch.delta_t.grad = None
+    smoothing_cost(batch, batch.end_times(layout), 0.0, layout, over).backward()
+    assert float(batch.delta_t.grad[1]) > 0  # without it the time cost pulls it down
+
+
+@pytest.mark.parametrize("over", ["pooled", "drawing", "path"])
+def test_drawings_fitted_together_feel_their_own_barrier(over):
+    a, b = _batch([3, 1]), _batch([2, 4])
+    for batch in (a, b):
+        batch.delta_t.data[1] = 0.1005  # one overlap near its floor in each drawing
+    both = PlanBatch.from_plans(a.to_plans() + b.to_plans())
+    layout = both.layout()
+    t_end = both.end_times(layout)
+    together = smoothing_costs(both, t_end, 10.0, layout, over, torch.tensor([0, 0, 1, 1]), 2,
+                               w_floor=0.0064)
+    alone = [smoothing_cost(x, x.end_times(), 10.0, None, over, w_floor=0.0064)
+             for x in (a, b)]
+    assert together.tolist() == pytest.approx([float(c) for c in alone], rel=1e-12)
+    assert (together > smoothing_costs(both, t_end, 10.0, layout, over,
+                                       torch.tensor([0, 0, 1, 1]), 2)).all()

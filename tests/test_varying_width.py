@@ -37,7 +37,7 @@ from inkmotion.sigma_lognormal.batch import PlanBatch
 #: the authors' objective and Adam settings (the engine keeps no defaults of its own), with
 #: the generation kinds' radius settings
 AUTHORS = Weights(lambda_smooth=20.0, w_image=200.0, w_sigma=50.0, w_canvas=1.0,
-                  samples_per_move=5, smooth_over="path", w_trace=0.0)
+                  samples_per_move=5, smooth_over="path", w_trace=0.0, w_floor=0.0)
 
 
 def settings_of(steps: int, lr_radius: float = 0.1,

@@ -106,7 +106,7 @@ class BatchObjective(Objective):
             image = image + terms[name]
         terms["smooth"] = smoothing_costs(batch, t_end, self.p.w_sigma, layout,
                                           self.p.smooth_over, index["path_item"], self.count,
-                                          self._time_moves_on(batch))
+                                          self._time_moves_on(batch), self.p.w_floor)
         terms["canvas"] = canvas_costs(batch.points, index["point_item"], index["sizes"],
                                        self.count)
         if self.trace_union is not None:

@@ -8,6 +8,17 @@ overlap Δt_i then feels the same pull T_i/M towards a shorter drawing, where th
 form weighs a path's overlaps by 1/(P·m_p), so the long strokes of a tag with a few
 one-move flicks were hardly shortened (49873.json: T_end 0.60× against 0.52×).
 
+The floor barrier (``w_floor``) keeps each overlap off its clamp floor from inside: a
+term w_floor·B(g) per overlap Δt_i (i ≥ 2), g = Δt_i − floor, normalised as T_end is. It
+is 0 above ``FLOOR_BAND`` and, below it, B(g) = band/g − 1 + ln(g/band) (B = B′ = 0 at
+the band's edge, B′(g) = (g − band)/g² → −∞ as g → 0): against the minimum-time pull
+T_i alone an overlap settles where T_i·g² + w_floor·g = w_floor·band, whatever λ is
+(the barrier is divided as T_end is and weighed by the same λ): at w_floor = 0.0064 and
+T_i = 0.8, g = 0.016, Δt 0.015 above the floor.
+It matters where the shapes Ac learn (``--lr-ac``): a skewed lognormal ends most of its
+movement early in its ±3σ window, so the next window may open at the floor and still
+peak well after it, and the time cost drove such pairs onto the floor.
+
 A fit that edits its plan divides T_end by the *initial* plan's counts (``time_moves``):
 with the plan's own m, each target an edit adds would make a second of motion cheaper
 (6 → 8 targets: a quarter less pull towards a shorter motion), and the edited motions
@@ -20,18 +31,37 @@ import torch
 
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
+from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
+
+#: the gap Δt − floor below which the floor barrier acts (Δt's units: a share of T_i)
+FLOOR_BAND = 0.05
+#: added to the gap in the barrier, so an overlap on its floor feels a finite push off it
+FLOOR_EPSILON = 1e-3
+
+
+def floor_barrier(delta_t: torch.Tensor, used: torch.Tensor) -> torch.Tensor:
+    """(M,) B(g) of each overlap (module docstring), g = Δt − floor + :data:`FLOOR_EPSILON`;
+    0 where ``used`` is 0 (each path's Δt_1)."""
+    floor, band, eps = scalar_tensors(delta_t, DELTA_T_RANGE[0], FLOOR_BAND, FLOOR_EPSILON)
+    g = delta_t - floor + eps
+    inside = g < band
+    safe = torch.where(inside, g, band)  # the formula only where it applies: finite anywhere
+    return torch.where(inside, band / safe - 1 + torch.log(safe / band), 0.0) * used
 
 
 def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
                    layout: GridLayout | None = None, over: str = "path",
-                   time_moves: torch.Tensor | None = None) -> torch.Tensor:
+                   time_moves: torch.Tensor | None = None, w_floor: float = 0.0
+                   ) -> torch.Tensor:
     """Mean over paths of T_end_p/m_p + w_σ·Var(Δt_p), Var over Δt_2..Δt_m (Δt_1 is unused)
     (``over="path"``), or Σ T_end_p / Σ m_p + w_σ·mean_p Var(Δt_p) (``over="drawing"``),
     or Σ T_end_p / Σ m_p + w_σ·Var over all the drawing's Δt (``over="pooled"``).
 
     ``time_moves`` (P,): the counts m_p that divide T_end_p, when they are not the plan's
     own (a fit's initial plan: :class:`~inkmotion.fitting.objective.Objective`'s
-    ``time_moves``, so the targets an edit adds do not make time cheaper). The variance is
+    ``time_moves``, so the targets an edit adds do not make time cheaper). ``w_floor``:
+    the floor barrier's weight (module docstring; 0: none), its terms divided as the
+    T_end of their path are. The variance is
     the population variance, computed for all paths at once with segment sums over
     ``layout.move_path`` (no Python loop over paths, static shapes).
     """
@@ -41,19 +71,25 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     path = layout.move_path  # (M,)
     used = (~layout.first).to(t_end.dtype)  # (M,) Δt_i that set an onset
     weight = scalar_tensors(t_end, w_sigma)[0]  # the same bits as w_σ, fewer casts
+    # the time a path takes, with its overlaps' floor barrier (one normaliser for both)
+    spent = t_end
+    if w_floor > 0:
+        barrier = floor_barrier(batch.delta_t, used)
+        spent = t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
+            0, path, barrier)
     if over == "pooled":  # one overlap rhythm over the whole drawing
         n_used = used.sum().clamp(min=1.0)
         mean_all = (batch.delta_t * used).sum() / n_used
         dev_all = (batch.delta_t - mean_all) * used
-        return t_end.sum() / per_time.sum() + weight * (dev_all * dev_all).sum() / n_used
+        return spent.sum() / per_time.sum() + weight * (dev_all * dev_all).sum() / n_used
     denom = (m - 1.0).clamp(min=1.0)  # (P,) m_p − 1 of them
     mean = torch.zeros_like(m).index_add(0, path, batch.delta_t * used) / denom
     dev = (batch.delta_t - mean[path]) * used
     var = torch.zeros_like(m).index_add(0, path, dev * dev) / denom
     if over == "drawing":
-        return t_end.sum() / per_time.sum() + weight * var.mean()
+        return spent.sum() / per_time.sum() + weight * var.mean()
     assert over == "path", over
-    return (t_end / per_time + weight * var).mean()
+    return (spent / per_time + weight * var).mean()
 
 
 def canvas_cost(points: torch.Tensor, width: float, height: float) -> torch.Tensor:
@@ -66,17 +102,22 @@ def canvas_cost(points: torch.Tensor, width: float, height: float) -> torch.Tens
 
 def smoothing_costs(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float, layout: GridLayout,
                     over: str, path_item: torch.Tensor, items: int,
-                    time_moves: torch.Tensor | None = None) -> torch.Tensor:
+                    time_moves: torch.Tensor | None = None, w_floor: float = 0.0
+                    ) -> torch.Tensor:
     """:func:`smoothing_cost` of each of ``items`` drawings fitted together (items,): path p
     belongs to drawing ``path_item[p]``, and each drawing's cost is its own paths' (a batched
     fit: the same value as the drawing's own fit, up to float round-off); ``time_moves``
-    (P,) as there."""
+    (P,) and ``w_floor`` as there."""
     m = layout.moves.to(t_end.dtype)  # (P,)
     per_time = m if time_moves is None else time_moves.to(t_end.dtype)  # (P,)
     path = layout.move_path  # (M,)
     move_item = path_item[path]  # (M,)
     used = (~layout.first).to(t_end.dtype)  # (M,)
     zeros = t_end.new_zeros(items)
+    if w_floor > 0:  # as in smoothing_cost
+        barrier = floor_barrier(batch.delta_t, used)
+        t_end = t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
+            0, path, barrier)
     if over == "pooled":
         n_used = zeros.index_add(0, move_item, used).clamp(min=1.0)
         mean = zeros.index_add(0, move_item, batch.delta_t * used) / n_used

@@ -53,6 +53,7 @@ class Weights:
     samples_per_move: int
     smooth_over: str  # "path" (the authors'), "drawing" or "pooled", see fitting.losses
     w_trace: float  # weight of the trace term (fitting.trace_loss), when there is one
+    w_floor: float  # weight of the overlaps' floor barrier in L_smooth (fitting.losses)
 
 
 @dataclass
@@ -109,7 +110,8 @@ class Objective:
             terms[name] = fn(rendered)
             image = image + terms[name]
         terms["smooth"] = smoothing_cost(batch, t_end, self.p.w_sigma, layout,
-                                         self.p.smooth_over, self._time_moves_on(batch))
+                                         self.p.smooth_over, self._time_moves_on(batch),
+                                         self.p.w_floor)
         terms["canvas"] = canvas_cost(batch.points, self.width, self.height)
         if self.trace is not None:
             terms["trace"] = self.trace(segments, layout, step)

@@ -83,6 +83,11 @@ class FitParams(OptimisationParams):
                              "paths of T_end/m + w_σ·Var(Δt)).",
                              choices=("pooled", "drawing", "path"),
                              earlier={3: "drawing", 2: "path"})
+    w_floor: float = param(0.0064, "Weight of the overlaps' floor barrier in the "
+                           "minimum-time cost: an overlap Δt within 0.05 of its 0.1 floor is "
+                           "pushed off it; against the time cost alone it settles 0.015 above "
+                           "the floor at the default w and T = 0.8. 0: none.",
+                           minimum=0, earlier={14: 0.0})
     targets: str = param("default", "Sub-movements: 'default' (the initialiser's sparse "
                          "plan, refined), N (about N in all) or 'auto' (the fewest that "
                          "reach --max-error).")
@@ -256,7 +261,8 @@ def _prepare(job: Job) -> tuple[StagedProblem, Any]:
         within = target if tolerance == 0 else render_polylines(
             renderer, traces.strokes, width + 2 * tolerance, canvas, dtype, job.device)
     objective = Objective(renderer, image_losses(job, Reference(image=within)), canvas,
-                          p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace),
+                          p.weights(smooth_over=p.smooth_over, w_trace=p.w_trace,
+                                    w_floor=p.w_floor),
                           trace=_trace_term(traces, plans, dtype, job.device, tolerance,
                                             p.w_worst)
                           if p.w_trace > 0 else None,

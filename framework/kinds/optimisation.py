@@ -68,8 +68,10 @@ class OptimisationParams:
     lr_points: float = param(2.0, "Learning rate of the virtual targets, px.", minimum=0)
     lr_delta_t: float = param(0.05, "Learning rate of the overlaps Δt.", minimum=0)
     lr_delta: float = param(0.1, "Learning rate of the turning angles δ.", minimum=0)
-    lr_ac: float = param(0.0, "Learning rate of the shapes Ac (0 keeps them fixed).",
-                         minimum=0)
+    lr_ac: float = param(0.003, "Learning rate of the shapes Ac (0 keeps them fixed): "
+                         "each lognormal's skew, so a sub-movement may do most of its "
+                         "movement early in its window and the next overlap it sooner.",
+                         minimum=0, earlier={14: 0.0})
     lr_final: float = param(0.3, "Cosine decay of the learning rates to this fraction.",
                             minimum=0, maximum=1, earlier={6: 0.1})
     max_turn: float = param(180.0, "The most one sub-movement's arc may turn, degrees: the "
@@ -87,14 +89,16 @@ class OptimisationParams:
         """``max_turn`` in radians: the clamp of |δ| (the optimiser's ``delta_limit``)."""
         return math.radians(self.max_turn)
 
-    def weights(self, *, smooth_over: str = "path", w_trace: float = 0.0) -> Weights:
+    def weights(self, *, smooth_over: str = "path", w_trace: float = 0.0,
+                w_floor: float = 0.0) -> Weights:
         """The objective's weights (:class:`inkmotion.fitting.objective.Weights`);
-        ``smooth_over`` and ``w_trace`` for the kinds that declare them (the others use
-        the authors' per-path smoothing cost and no trace term)."""
+        ``smooth_over``, ``w_trace`` and ``w_floor`` for the kinds that declare them (the
+        others use the authors' per-path smoothing cost, no trace term and no floor
+        barrier)."""
         from inkmotion.fitting.objective import Weights
 
         return Weights(self.lambda_smooth, self.w_image, self.w_sigma, self.w_canvas,
-                       self.samples_per_move, smooth_over, w_trace)
+                       self.samples_per_move, smooth_over, w_trace, w_floor)
 
     def optimiser_settings(self, *, lr_radius: float = 0.0,
                            radius_range: tuple[float, float] | None = None

@@ -19,7 +19,7 @@ CANVAS = 350
 #: the problem's objective weights: the authors' (λ = 20, w_σ = 50, per-path smoothing),
 #: fixed here so the profiled step stays the same problem whatever a job kind's defaults
 WEIGHTS = Weights(lambda_smooth=20.0, w_image=200.0, w_sigma=50.0, w_canvas=1.0,
-                  samples_per_move=5, smooth_over="path", w_trace=0.0)
+                  samples_per_move=5, smooth_over="path", w_trace=0.0, w_floor=0.0)
 
 
 def synthetic_plans(moves: tuple[int, ...] = MOVES, size: int = CANVAS, seed: int = 0,
