@@ -12,6 +12,7 @@ from inkmotion.fitting.losses import (
     FLOOR_BAND,
     FLOOR_EPSILON,
     floor_barrier,
+    overlap_gaps,
     smoothing_cost,
     smoothing_costs,
 )
@@ -149,3 +150,51 @@ def test_drawings_fitted_together_feel_their_own_barrier(over):
     assert together.tolist() == pytest.approx([float(c) for c in alone], rel=1e-12)
     assert (together > smoothing_costs(both, t_end, 10.0, layout, over,
                                        torch.tensor([0, 0, 1, 1]), 2)).all()
+
+
+def _pair(ac: tuple[float, float], delta_t: float = 0.3) -> PlanBatch:
+    return PlanBatch.from_plans([MotorPlan(
+        points=torch.tensor([[0.0, 0.0], [50.0, 0.0], [50.0, 40.0]], dtype=torch.float64),
+        delta_t=torch.tensor([0.9, delta_t], dtype=torch.float64),
+        delta=torch.zeros(2, dtype=torch.float64),
+        ac=torch.tensor(ac, dtype=torch.float64),
+        T=torch.full((2,), 0.8, dtype=torch.float64))])
+
+
+def _peaks(batch: PlanBatch) -> torch.Tensor:
+    """The two lognormals' modes t0 + e^{μ−σ²}, from the onsets the kinematics use."""
+    sigma, mu, t0 = batch.timing()
+    return t0 + torch.exp(mu - sigma * sigma)
+
+
+def test_an_overlaps_gap_is_its_window_gap_where_the_shapes_agree():
+    batch = _pair((0.05, 0.05))
+    assert float(overlap_gaps(batch)[1]) == 0.3  # exactly Δt: the leads cancel
+
+
+@pytest.mark.parametrize("ac, nearer", [((1e-4, 0.1), "peaks"), ((0.1, 1e-4), "windows")])
+def test_an_overlaps_gap_is_the_nearer_of_its_windows_and_its_peaks(ac, nearer):
+    """A skewed sub-movement after a symmetric one peaks early in a window that opens
+    later: its peak comes sooner than Δt says; the other way round the peaks are further
+    apart than the windows, and Δt is the gap."""
+    batch = _pair(ac)
+    peaks = _peaks(batch)
+    peak_gap = float((peaks[1] - peaks[0]) / 0.8)
+    gap = float(overlap_gaps(batch)[1])
+    if nearer == "peaks":
+        assert peak_gap < 0.3 and gap == pytest.approx(peak_gap, abs=1e-12)
+    else:
+        assert peak_gap > 0.3 and gap == 0.3
+
+
+def test_the_barrier_pushes_peaks_that_crossed_the_floor_apart():
+    batch = _pair((1e-4, 0.1), delta_t=0.12)  # the second peaks before the first
+    assert float(overlap_gaps(batch)[1]) < 0.1
+    batch.ac.requires_grad_(True)
+    used = (~batch.layout().first).to(batch.ac.dtype)
+    b = floor_barrier(overlap_gaps(batch), used)
+    b.sum().backward()
+    b = b.detach()
+    assert torch.isfinite(b).all() and float(b[1]) > 0
+    # descent: less skew after (its peak later), more before (its peak sooner)
+    assert float(batch.ac.grad[0]) < 0 < float(batch.ac.grad[1])

@@ -9,15 +9,19 @@ form weighs a path's overlaps by 1/(P·m_p), so the long strokes of a tag with a
 one-move flicks were hardly shortened (49873.json: T_end 0.60× against 0.52×).
 
 The floor barrier (``w_floor``) keeps each overlap off its clamp floor from inside: a
-term w_floor·B(g) per overlap Δt_i (i ≥ 2), g = Δt_i − floor, normalised as T_end is. It
-is 0 above ``FLOOR_BAND`` and, below it, B(g) = band/g − 1 + ln(g/band) (B = B′ = 0 at
-the band's edge, B′(g) = (g − band)/g² → −∞ as g → 0): against the minimum-time pull
-T_i alone an overlap settles where T_i·g² + w_floor·g = w_floor·band, whatever λ is
-(the barrier is divided as T_end is and weighed by the same λ): at w_floor = 0.0064 and
-T_i = 0.8, g = 0.016, Δt 0.015 above the floor.
-It matters where the shapes Ac learn (``--lr-ac``): a skewed lognormal ends most of its
-movement early in its ±3σ window, so the next window may open at the floor and still
-peak well after it, and the time cost drove such pairs onto the floor.
+term w_floor·B(g) per overlap i ≥ 2, normalised as T_end is, g = gap_i − floor + ε with
+gap_i the nearer of what the overlap sets apart in units of T_i: the windows' openings
+(Δt_i) and the two lognormals' speed peaks (:func:`overlap_gaps`). It is 0 above
+``FLOOR_BAND`` and, below it, B(g) = band/g − 1 + ln(g/band) (B = B′ = 0 at the band's
+edge, B′(g) = (g − band)/g² → −∞ as g → 0): against the minimum-time pull T_i alone an
+overlap settles where T_i·g² + w_floor·g = w_floor·band, whatever λ is (the barrier is
+divided as T_end is and weighed by the same λ): at w_floor = 0.0064 and T_i = 0.8,
+g = 0.016, Δt 0.015 above the floor. It matters where the shapes Ac learn
+(``--lr-ac``): a skewed lognormal does most of its movement early in its ±3σ window, so
+the time cost could slide the next window's opening onto the floor while the peaks
+stayed apart, or, a symmetric one before a skewed one, bring the peaks together (or past
+each other) while the windows stayed apart. Where neighbours share a shape the two gaps
+are one, Δt_i: the authors' floor.
 
 A fit that edits its plan divides T_end by the *initial* plan's counts (``time_moves``):
 with the plan's own m, each target an edit adds would make a second of motion cheaper
@@ -31,7 +35,7 @@ import torch
 
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
-from inkmotion.sigma_lognormal.params import DELTA_T_RANGE
+from inkmotion.sigma_lognormal.params import DELTA_T_RANGE, sigma_mu
 
 #: the gap Δt − floor below which the floor barrier acts (Δt's units: a share of T_i)
 FLOOR_BAND = 0.05
@@ -39,14 +43,31 @@ FLOOR_BAND = 0.05
 FLOOR_EPSILON = 1e-3
 
 
-def floor_barrier(delta_t: torch.Tensor, used: torch.Tensor) -> torch.Tensor:
-    """(M,) B(g) of each overlap (module docstring), g = Δt − floor + :data:`FLOOR_EPSILON`;
-    0 where ``used`` is 0 (each path's Δt_1)."""
-    floor, band, eps = scalar_tensors(delta_t, DELTA_T_RANGE[0], FLOOR_BAND, FLOOR_EPSILON)
-    g = delta_t - floor + eps
+def overlap_gaps(batch: PlanBatch) -> torch.Tensor:
+    """(M,) each overlap's gap in units of T_i: the nearer of the two openings it sets apart,
+    its window's (Δt_i) and its speed peak's, Δt_i + (lead_i − lead_{i−1})/T_i with
+    lead = e^{μ−σ²} − e^{μ−3σ} the time from a window's opening to its lognormal's mode.
+    Where neighbours share a shape Ac (and T) the leads cancel exactly and the gap is Δt_i;
+    where they differ, a skewed sub-movement after a symmetric one may peak before it
+    although its window opens later. Entries of each path's first sub-movement are
+    meaningless (callers mask them)."""
+    sigma, mu = sigma_mu(batch.ac, batch.T)
+    lead = torch.exp(mu - sigma * sigma) - torch.exp(mu - scalar_tensors(mu, 3.0)[0] * sigma)
+    before = torch.cat([lead[:1], lead[:-1]])
+    return torch.minimum(batch.delta_t, batch.delta_t + (lead - before) / batch.T)
+
+
+def floor_barrier(gap: torch.Tensor, used: torch.Tensor) -> torch.Tensor:
+    """(M,) B(g) of each overlap's ``gap`` (:func:`overlap_gaps`; module docstring),
+    g = gap − floor + :data:`FLOOR_EPSILON`, continued below g = ε along its tangent (a
+    peak gap may cross the floor: the push off it stays finite and strong); 0 where
+    ``used`` is 0 (each path's Δt_1)."""
+    floor, band, eps = scalar_tensors(gap, DELTA_T_RANGE[0], FLOOR_BAND, FLOOR_EPSILON)
+    g = gap - floor + eps
     inside = g < band
-    safe = torch.where(inside, g, band)  # the formula only where it applies: finite anywhere
-    return torch.where(inside, band / safe - 1 + torch.log(safe / band), 0.0) * used
+    at = torch.where(inside, g.clamp_min(eps), band)  # where the formula is taken: finite
+    b = band / at - 1 + torch.log(at / band) + (at - band) / (at * at) * (g - at)
+    return torch.where(inside, b, 0.0) * used
 
 
 def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
@@ -74,7 +95,7 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     # the time a path takes, with its overlaps' floor barrier (one normaliser for both)
     spent = t_end
     if w_floor > 0:
-        barrier = floor_barrier(batch.delta_t, used)
+        barrier = floor_barrier(overlap_gaps(batch), used)
         spent = t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
             0, path, barrier)
     if over == "pooled":  # one overlap rhythm over the whole drawing
@@ -115,7 +136,7 @@ def smoothing_costs(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float, layou
     used = (~layout.first).to(t_end.dtype)  # (M,)
     zeros = t_end.new_zeros(items)
     if w_floor > 0:  # as in smoothing_cost
-        barrier = floor_barrier(batch.delta_t, used)
+        barrier = floor_barrier(overlap_gaps(batch), used)
         t_end = t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
             0, path, barrier)
     if over == "pooled":
