@@ -201,4 +201,8 @@ def test_learned_shapes_keep_the_overlaps_off_their_floor(tmp_path: Path) -> Non
     assert overlaps and min(overlaps) >= 0.1 + 0.01
     shapes = [a for path in _plan_field(tmp_path / "t2", "ac") for a in path]
     assert len({round(a, 4) for a in shapes}) > 2  # the shapes learned, each its own
+    at = sum(min(abs(a - 1e-4), abs(a - 0.1)) <= 1e-6 for a in shapes)
+    assert report["ac_at_clamp"] == pytest.approx(at / len(shapes))
+    assert report["metrics"]["ac_at_clamp"] == report["ac_at_clamp"]
+    assert bare["ac_at_clamp"] >= 0 and at > 0  # tempt-2's hooks want more skew than 0.1
     assert report["chamfer_mean_px"] <= bare["chamfer_mean_px"] + 0.05

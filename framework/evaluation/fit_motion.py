@@ -76,6 +76,18 @@ def delta_at_clamp(plans: list[Any], limit: float, tolerance: float = 1e-6) -> f
     return at / len(deltas) if deltas else 0.0
 
 
+def ac_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
+    """Share of the shapes Ac_i within ``tolerance`` of a bound of
+    :data:`~inkmotion.sigma_lognormal.params.AC_RANGE` (1e-4, the most symmetric bell; 0.1,
+    the most skewed): where the fit wanted a shape the authors' range does not hold; 0 for
+    no sub-movement (and for a fit whose shapes do not learn: they stay at 0.01)."""
+    from inkmotion.sigma_lognormal.params import AC_RANGE
+
+    shapes = [a for plan in plans for a in plan.ac.detach().cpu().double().tolist()]
+    at = sum(1 for a in shapes if min(abs(a - b) for b in AC_RANGE) <= tolerance)
+    return at / len(shapes) if shapes else 0.0
+
+
 def evaluation_ratios(drawing: Any) -> dict[str, float]:
     """The paper's ratios method/ΣΛ (> 1: ΣΛ better) of duration, MSJ and LDJ for minimum
     jerk and time-optimal timing of the longest path, at :data:`V_MAX`, :data:`A_MAX`."""
