@@ -72,9 +72,9 @@ class FitParams(OptimisationParams):
     overlap's windows and speed peaks off the 0.1 floor: over the development set T_end
     is then at or below the authors' on 18 of 21 at 300 steps (16 at spec 14) and on all
     21 at 600 (18), all 21 meet every goal at 300 steps (18), mean Chamfer 0.418 px
-    averaged (0.428). lr_ac 0.002 and 0.004 gave 19 as rapid with 20 meeting every goal;
-    without the barrier temptTag-2010_7_28_15_3_5's two hooks slid their overlaps onto
-    the floor."""
+    averaged (0.428). With a first barrier on the windows' gap alone, lr_ac 0.002 and
+    0.004 gave 19 as rapid with 20 meeting every goal; without a barrier
+    temptTag-2010_7_28_15_3_5's two hooks slid their overlaps onto the floor."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
