@@ -26,6 +26,9 @@ class SprayRenderer:
     name = "spray"
     description = ("Spray paint: expected density of speed-weighted Gaussian splats "
                    "(differentiable, CPU and CUDA); seeded particles and drips in previews.")
+    #: its paint is denser where the pen slows: an image loss through it depends on the
+    #: timing, so a fit keeps the lognormals' shapes fixed with it (kinds/fit.py)
+    paints_by_speed = True
 
     def __call__(
         self, segments: torch.Tensor, widths: torch.Tensor | float, height: int, width: int

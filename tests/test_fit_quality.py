@@ -119,11 +119,12 @@ def test_the_gallery_card_of_a_poor_fit_says_so(tmp_path: Path) -> None:
 
 def test_overlaps_left_on_their_bound_are_named_with_what_to_try(tmp_path: Path) -> None:
     """Four targets along one straight line: nothing holds the sub-movements apart, the
-    minimum-time cost pins every overlap on its 0.1 floor. The fit says where, what it
-    means and what to try, and report.json lists them; one target draws the line with none."""
+    minimum-time cost pins every overlap on its 0.1 floor (without spec 15's floor
+    barrier, which holds them just off it). The fit says where, what it means and what to
+    try, and report.json lists them; one target draws the line with none."""
     line = _svg(tmp_path, "line", "10,100 60,100 110,100 160,100")
     report, res = _fit(line, tmp_path / "four", "--initialiser", "line", "--targets", "4",
-                       "--steps", "150")
+                       "--steps", "150", "--w-floor", "0")
     assert report["delta_t_at_clamp"] == 1.0 and report["quality"] == "good"
     assert report["pinned_overlaps"] == [{"path": 1, "move": i, "bound": 0.1}
                                          for i in (2, 3, 4)]
@@ -204,5 +205,6 @@ def test_learned_shapes_keep_the_overlaps_off_their_floor(tmp_path: Path) -> Non
     at = sum(min(abs(a - 1e-4), abs(a - 0.1)) <= 1e-6 for a in shapes)
     assert report["ac_at_clamp"] == pytest.approx(at / len(shapes))
     assert report["metrics"]["ac_at_clamp"] == report["ac_at_clamp"]
+    assert report["shapes_learned"] is True
     assert bare["ac_at_clamp"] >= 0 and at > 0  # tempt-2's hooks want more skew than 0.1
     assert report["chamfer_mean_px"] <= bare["chamfer_mean_px"] + 0.05

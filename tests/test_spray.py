@@ -118,6 +118,10 @@ def test_an_optimisation_through_spray_lowers_the_image_loss(tmp_path: Path) -> 
     assert res.returncode == 0, res.stderr
     report = json.loads((out / "report.json").read_text())
     assert report["final_loss"]["mse"] < 0.8 * report["initial_loss"]["mse"]
+    # its paint depends on the speed: the shapes stay at their start (kinds/fit.py)
+    assert report["shapes_learned"] is False
+    plan = json.loads((out / "plan.json").read_text())
+    assert all(abs(a - 0.01) < 1e-6 for path in plan["paths"] for a in path["ac"])
 
 
 def test_the_spray_session_keeps_its_patch(device: torch.device) -> None:
