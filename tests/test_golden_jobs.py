@@ -6,7 +6,8 @@ table, and every figure of its report.json but the wall-clock ones. Keys were ad
 the files since: the tag and abstract reports record the random-weights warning under
 ``warnings`` (issue 24: a job run on random CLIP weights says so in its report, not only
 once on the console); and one more: the fit report lists the overlaps left on a clamp
-bound under ``pinned_overlaps`` (issue 32, spec 9; none in this fit).
+bound under ``pinned_overlaps`` (issue 32, spec 9; none in this fit), and since spec 15
+``ac_at_clamp`` and ``shapes_learned`` (0 and false: a version-4 fit keeps its shapes).
 
 The files are as ``inkmotion run`` wrote them: inputs relative to tests/data/v4_jobs, the
 tiny CLIP config relative to the repository, random weights as recorded, the abstraction's
@@ -38,7 +39,11 @@ report.json were written again by this version (the others stayed within toleran
 still, Adam's moments and update were written as one rounding per product and sum, and
 the lognormal's σ and μ and the raster's lengths by functions whose bits no CPU code path
 changes (:mod:`inkmotion.portable_math`): the abstract job's targets moved up to 0.09 px and
-its CLIP similarity 0.13 %, and its plan.json and report.json were written again."""
+its CLIP similarity 0.13 %, and its plan.json and report.json were written again. On an
+AMD EPYC host the same code (the stop before spec 15 as well as spec 15) moved the
+abstract job's targets up to 0.087 px and its smoothing term 0.2 %, its CLIP-visual
+steps carrying its kernels' last bits: the abstract job's tolerances are about twice
+that."""
 
 from __future__ import annotations
 
@@ -75,9 +80,9 @@ def figures(value: object) -> object:
 
 #: px: how far a plan's virtual targets may move between machines (the fit's: see
 #: ``plan_compare``, its motion is compared instead)
-PLAN_TOLERANCE_PX = {"tag": 1e-3, "abstract": 0.05}
+PLAN_TOLERANCE_PX = {"tag": 1e-3, "abstract": 0.18}
 #: relative tolerance of the report's figures between machines
-RELATIVE = {"fit": 3e-2, "tag": 1e-5, "abstract": 1e-3, "simulate": 1e-4, "evaluate": 5e-2}
+RELATIVE = {"fit": 3e-2, "tag": 1e-5, "abstract": 4e-3, "simulate": 1e-4, "evaluate": 5e-2}
 #: a number quoted in a report's sentence (an edit's explanation)
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 #: counts read off the motion with a threshold (a speed peak counts when its prominence
