@@ -70,6 +70,17 @@ def floor_barrier(gap: torch.Tensor, used: torch.Tensor) -> torch.Tensor:
     return torch.where(inside, b, 0.0) * used
 
 
+def _with_barrier(batch: PlanBatch, t_end: torch.Tensor, used: torch.Tensor,
+                  path: torch.Tensor, w_floor: float) -> torch.Tensor:
+    """(P,) each path's T_end plus w_floor × its overlaps' floor barrier (one normaliser
+    for both); ``t_end`` itself where ``w_floor`` is 0."""
+    if w_floor <= 0:
+        return t_end
+    barrier = floor_barrier(overlap_gaps(batch), used)
+    return t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
+        0, path, barrier)
+
+
 def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
                    layout: GridLayout | None = None, over: str = "path",
                    time_moves: torch.Tensor | None = None, w_floor: float = 0.0
@@ -92,12 +103,7 @@ def smoothing_cost(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float = 50.0,
     path = layout.move_path  # (M,)
     used = (~layout.first).to(t_end.dtype)  # (M,) Δt_i that set an onset
     weight = scalar_tensors(t_end, w_sigma)[0]  # the same bits as w_σ, fewer casts
-    # the time a path takes, with its overlaps' floor barrier (one normaliser for both)
-    spent = t_end
-    if w_floor > 0:
-        barrier = floor_barrier(overlap_gaps(batch), used)
-        spent = t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
-            0, path, barrier)
+    spent = _with_barrier(batch, t_end, used, path, w_floor)
     if over == "pooled":  # one overlap rhythm over the whole drawing
         n_used = used.sum().clamp(min=1.0)
         mean_all = (batch.delta_t * used).sum() / n_used
@@ -135,10 +141,7 @@ def smoothing_costs(batch: PlanBatch, t_end: torch.Tensor, w_sigma: float, layou
     move_item = path_item[path]  # (M,)
     used = (~layout.first).to(t_end.dtype)  # (M,)
     zeros = t_end.new_zeros(items)
-    if w_floor > 0:  # as in smoothing_cost
-        barrier = floor_barrier(overlap_gaps(batch), used)
-        t_end = t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
-            0, path, barrier)
+    t_end = _with_barrier(batch, t_end, used, path, w_floor)
     if over == "pooled":
         n_used = zeros.index_add(0, move_item, used).clamp(min=1.0)
         mean = zeros.index_add(0, move_item, batch.delta_t * used) / n_used

@@ -352,14 +352,15 @@ def _optimiser_settings(job: Job, traces: Any) -> Any:
     from dataclasses import replace
 
     p = job.params
-    fixed = {} if shapes_learn(job) else {"lr_ac": 0.0}
     if not any(s.shape[1] == 3 for s in traces.strokes):
-        return replace(p.optimiser_settings(), **fixed)
-    import numpy as np
+        settings = p.optimiser_settings()
+    else:
+        import numpy as np
 
-    radii = np.concatenate([s[:, 2] for s in traces.strokes if s.shape[1] == 3])
-    return replace(p.optimiser_settings(lr_radius=LR_RADIUS, radius_range=(
-        max(0.25, 0.5 * float(radii.min())), max(1.0, 1.5 * float(radii.max())))), **fixed)
+        radii = np.concatenate([s[:, 2] for s in traces.strokes if s.shape[1] == 3])
+        settings = p.optimiser_settings(lr_radius=LR_RADIUS, radius_range=(
+            max(0.25, 0.5 * float(radii.min())), max(1.0, 1.5 * float(radii.max()))))
+    return settings if shapes_learn(job) else replace(settings, lr_ac=0.0)
 
 
 def _pen_width(traces: Any, p: FitParams) -> float:
