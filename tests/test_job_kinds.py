@@ -127,6 +127,9 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     v15 = full({"version": 15, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     assert (v14["lr_ac"], v15["lr_ac"]) == (0.0, 0.003)  # the lognormals' shapes learn
     assert (v14["w_floor"], v15["w_floor"]) == (0.0, 0.0064)  # and Δt keeps off its floor
+    v16 = full({"version": 16, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    # the tempo ladder backs off a rung that leaves the goals instead of ending there
+    assert (v15["rapid_backs_off"], v16["rapid_backs_off"]) == (False, True)
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version

@@ -4,6 +4,7 @@ the staged fit: the default refinement, a count of targets, and ``--targets auto
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -392,9 +393,9 @@ def test_default_fit_reports_its_plan_and_stages(default_fit: Path) -> None:
     r = report_of(out)
     # the last fifth of the steps is the tempo ladder's: rungs of 4 (spec 12)
     assert [s["steps"] for s in r["stages"][:3]] == _split(90 - 4 * 4, 0.6, 2) == [44, 15, 15]
-    rungs = r["stages"][3:]  # until one leaves the goals: the job ends there
-    assert 1 <= len(rungs) <= 4 and [s["steps"] for s in rungs] == [4] * len(rungs)
-    assert r["steps"] == sum(s["steps"] for s in r["stages"]) == 90 - 4 * (4 - len(rungs))
+    rungs = r["stages"][3:]  # all four run: one that leaves the goals is backed off from
+    assert [s["steps"] for s in rungs] == [4] * 4
+    assert r["steps"] == sum(s["steps"] for s in r["stages"]) == 90
     assert r["stages"][0]["moves"] <= r["moves"] <= 1.2 * r["stages"][0]["moves"] + 1
     assert 0.0 <= r["delta_t_at_clamp"] <= 1.0 and r["speed_peaks"] >= r["paths"]
     assert "recorded" not in r  # a Hershey word has no time stamps
@@ -404,19 +405,22 @@ def test_default_fit_reports_its_plan_and_stages(default_fit: Path) -> None:
 
 def test_the_tempo_ladder_keeps_the_most_rapid_rung_within_the_goals(word: Path,
                                                                      default_fit: Path) -> None:
-    """Rungs of λ × 1.5, 2, 3, 4, each going on from the one before, until one leaves the
-    goals; the result is the last kept rung (each kept one more rapid than the one before
-    by the margin), and ``--rapid-within 0`` gives every step to the stages (spec 11's
-    split)."""
-    from inkmotion.fitting.stages import TEMPO_MARGIN, TEMPO_RUNGS
+    """Rungs of λ × 1.5, 2, 3, 4, each going on from the last within the goals, one that
+    leaves them followed by one halfway back (spec 16); the result is the last kept rung
+    (each kept one more rapid than the one before by the margin), and ``--rapid-within
+    0`` gives every step to the stages (spec 11's split)."""
+    from inkmotion.fitting.stages import TEMPO_MARGIN, TEMPO_RUNGS, _next_factor
 
     r = report_of(default_fit)
     rungs = [s for s in r["stages"] if "time_weight" in s]
-    assert [s["time_weight"] for s in rungs] == list(TEMPO_RUNGS[:len(rungs)])
-    ended = [k for k, s in enumerate(rungs) if "the ladder ends" in s["why"]]
-    # one rung at most leaves the goals, and it is the last that runs: the job ends there
-    assert ended in ([], [len(rungs) - 1]) and not any(rungs[k]["kept"] for k in ended)
-    assert r["steps"] == 90 - (len(TEMPO_RUNGS) - len(rungs)) * rungs[0]["steps"]
+    assert len(rungs) == len(TEMPO_RUNGS) and r["steps"] == 90
+    within, beyond = 1.0, math.inf
+    for rung in rungs:  # each factor follows from the rungs before it
+        assert rung["time_weight"] == _next_factor(within, beyond)
+        left = "backs off" in rung["why"]
+        assert not (left and rung["kept"]) and "the ladder ends" not in rung["why"]
+        within, beyond = (within, rung["time_weight"]) if left else (rung["time_weight"],
+                                                                     beyond)
     kept = [s for s in rungs if s["kept"]]
     ratios = [s["t_end_ratio"] for s in kept]
     assert all(b <= a - TEMPO_MARGIN for a, b in zip(ratios, ratios[1:], strict=False))
@@ -484,6 +488,52 @@ def test_the_ladder_decides_by_the_goals_and_the_margin(rungs, kept, ended) -> N
     assert result is answers[last_kept]
     if ended is not None:
         assert "the ladder ends" in record[ended]["why"] and len(record) == ended + 1
+
+
+@pytest.mark.parametrize("rungs, factors, kept", [
+    # all within: the same rungs as without backing off
+    ([(0.0, 1.9), (0.0, 1.8), (0.0, 1.7), (0.0, 1.6)], [1.5, 2.0, 3.0, 4.0], [True] * 4),
+    # the first leaves the goals: halfway back to 1, then halfway up again
+    ([(2.0, 1.5), (0.0, 1.9), (0.0, 1.8), (0.0, 1.7)], [1.5, 1.25, 1.375, 1.4375],
+     [False, True, True, True]),
+    # the third leaves them: halfway between the second and it, which leaves them too
+    ([(0.0, 1.9), (0.0, 1.8), (2.0, 1.5), (2.0, 1.6)], [1.5, 2.0, 3.0, 2.5],
+     [True, True, False, False]),
+    # an overlap pinned: backed off the same way
+    ([(0.0, 1.9), (0.0, 1.5, True), (0.0, 1.8), (0.0, 1.7)], [1.5, 2.0, 1.75, 1.875],
+     [True, False, True, True]),
+])
+def test_a_ladder_that_backs_off_runs_every_rung_from_the_last_within_the_goals(
+        rungs, factors, kept) -> None:
+    """Spec 16: a rung that leaves the goals is followed by one at the λ halfway between
+    the last factor within them and its own, going on from the last rung within them."""
+    from inkmotion.fitting.optimise import OptimiserSettings
+    from inkmotion.fitting.stages import RefineSettings, _tempo_ladder
+
+    start = _rung_result(0.0, 2.0)
+    record: list[dict] = []
+    ladder = _tempo_ladder(start, start, plans_of=[2], strokes=[np.array([[0.0, 0.0],
+                                                                          [100.0, 0.0]])],
+                           size=350.0, settings=OptimiserSettings(400, 2.0, 0.05, 0.1, 0.0, 0.3),
+                           refine=RefineSettings(rounds=2, rapid_within=0.5, backs_off=True),
+                           observers=None, record=record, done=320, decay=320, rung_steps=20)
+    request, answers, asked, bases = next(ladder), [_rung_result(*r) for r in rungs], [], []
+    try:
+        for answer in answers:
+            asked.append(request.time_weight)
+            bases.append(request.plans)
+            request = ladder.send(answer)
+        raise AssertionError("the ladder asked for a fifth rung")
+    except StopIteration as stop:
+        result, done, _ = stop.value
+    assert asked == factors and done == 320 + 20 * 4
+    assert [e["kept"] for e in record] == kept
+    assert result is answers[max(i for i, k in enumerate(kept) if k)]
+    for k in range(1, 4):  # each rung goes on from the last one within the goals
+        last_within = max((i for i in range(k) if "backs off" not in record[i]["why"]),
+                          default=None)
+        assert bases[k] is (start if last_within is None else answers[last_within]).plans
+    assert not any("the ladder ends" in e["why"] for e in record)
 
 
 def test_rung_steps_come_out_of_the_fits_steps() -> None:

@@ -112,6 +112,9 @@ class RefineSettings:
     #: on a more rapid motion, the last ``tempo_share`` of the steps (0: no ladder)
     rapid_within: float = 0.0
     tempo_share: float = 0.2
+    #: a rung that leaves the goals is followed by a gentler one instead of ending the
+    #: ladder (:func:`_tempo_ladder`)
+    backs_off: bool = False
 
     @property
     def rule(self) -> Sparsity:
@@ -484,19 +487,22 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
                   ) -> Generator[Request, FitResult, tuple[FitResult, int, float]]:
     """The most rapid motion within the goals (the module docstring's default mode): from the
     staged fit's ``result``, rungs of ``rung_steps`` steps each with λ × :data:`TEMPO_RUNGS`
-    in turn, each going on from the one before (its Adam state too), at the learning rates
-    of the middle of the stages' decay (``decay`` steps). A rung stays within the goals
-    when its mean distance is within ``rapid_within`` px, its worst miss within 8 px and
-    no more than :data:`TEMPO_WORST_GROWTH_PX` beyond the worst before the ladder (at 350
-    px, the goals by the rule's rescue margin; a goal the fit already missed: no worse
-    than before the ladder) and no more overlaps sit on a clamp bound; the first that does
-    not ends the ladder, and the job with it (it then runs fewer steps than it announced:
-    a rung after it would go on from a plan outside the goals). The result is the last
-    rung within the goals that shortened the
-    T_end ratio by :data:`TEMPO_MARGIN` or more than the one kept before it, else
-    ``result``. Each rung is a record entry (``time_weight``, its figures, ``kept``).
-    Returns the result, the steps run so far (``done`` plus the rungs') and the rungs'
-    optimiser seconds."""
+    in turn, each going on from the last rung within the goals (its Adam state too), at
+    the learning rates of the middle of the stages' decay (``decay`` steps). A rung stays
+    within the goals when its mean distance is within ``rapid_within`` px, its worst miss
+    within 8 px and no more than :data:`TEMPO_WORST_GROWTH_PX` beyond the worst before the
+    ladder (at 350 px, the goals by the rule's rescue margin; a goal the fit already
+    missed: no worse than before the ladder) and no more overlaps sit on a clamp bound.
+    A rung that leaves them, with ``backs_off`` (spec 16 on), is followed by one at the λ
+    halfway between the last factor within the goals (1 before any) and its own, going on
+    from that last rung within them, so every rung the fit announced runs and λ is
+    bisected towards the most a plan still unsettled by its edits can take; without it
+    (specs 12–15) the first that leaves them ends the ladder, and the job with it (it then
+    runs fewer steps than it announced). The result is the last rung within the goals
+    that shortened the T_end ratio by :data:`TEMPO_MARGIN` or more than the one kept
+    before it, else ``result``. Each rung is a record entry (``time_weight``, its figures,
+    ``kept``). Returns the result, the steps run so far (``done`` plus the rungs') and
+    the rungs' optimiser seconds."""
     from inkmotion.evaluation.fit_motion import pinned_overlaps
     from inkmotion.fitting.quality import chamfer_of, t_end_ratio
 
@@ -512,11 +518,13 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
     stage = replace(settings, steps=rung_steps, schedule_start=decay // 2,
                     schedule_total=decay)
     total = done + len(TEMPO_RUNGS) * rung_steps
-    current, wall = result, 0.0
-    for factor in TEMPO_RUNGS:
-        rung = yield Request(current.plans, stage, _Offset(observers, done, total),
-                             {**current.state, "step": 0}, None, time_weight=factor)
-        done, wall, current = done + rung_steps, wall + rung.wall_s, rung
+    base, wall = result, 0.0  # the last rung within the goals (the staged fit's result)
+    within_factor, beyond_factor = 1.0, math.inf  # λ factors bracketing the most it takes
+    factor = TEMPO_RUNGS[0]
+    for _ in TEMPO_RUNGS:
+        rung = yield Request(base.plans, stage, _Offset(observers, done, total),
+                             {**base.state, "step": 0}, None, time_weight=factor)
+        done, wall = done + rung_steps, wall + rung.wall_s
         entry = {"stage": len(record) + 1, "steps": rung_steps,
                  "moves": sum(p.m for p in rung.plans), "inserted_before": 0,
                  "merged_before": 0, "time_weight": factor}
@@ -526,28 +534,46 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
         pins = len(pinned_overlaps(rung.plans))
         within = mean <= allowed_mean and worst <= allowed_worst and pins <= pins0
         faster = within and ratio <= best - TEMPO_MARGIN
+        if within:
+            base, within_factor = rung, factor
+        else:
+            beyond_factor = factor
+        factor = _next_factor(within_factor, beyond_factor)
+        ends = not within and not refine.backs_off
         entry.update(chamfer_mean_px=mean, chamfer_max_px=worst, t_end_ratio=ratio,
                      kept=faster, why=_rung_why(within, faster, mean, worst, pins - pins0,
-                                                allowed_mean, allowed_worst))
+                                                allowed_mean, allowed_worst,
+                                                None if ends else factor))
         if faster:
             result, best = rung, ratio
-        if not within:  # the ladder ends: a rung after it could not be kept
+        if ends:  # a rung after it would go on from a plan outside the goals
             break
     return result, done, wall
 
 
+def _next_factor(within: float, beyond: float) -> float:
+    """The tempo ladder's next λ factor: the next of :data:`TEMPO_RUNGS` above ``within``
+    (the last factor that kept the goals) while none has left them, else halfway between
+    ``within`` and ``beyond`` (the lowest that left them)."""
+    if math.isfinite(beyond):
+        return (within + beyond) / 2
+    return next((f for f in TEMPO_RUNGS if f > within), TEMPO_RUNGS[-1])
+
+
 def _rung_why(within: bool, faster: bool, mean: float, worst: float, pins: int,
-              allowed_mean: float, allowed_worst: float) -> str:
-    """A rung's record in a few words."""
+              allowed_mean: float, allowed_worst: float, then: float | None) -> str:
+    """A rung's record in a few words; ``then``: the next rung's λ factor after a rung
+    that left the goals (None: the ladder ends)."""
     if faster:
         return "more rapid, within the goals"
     if within:
         return "within the goals, but no more rapid by the margin"
+    after = "the ladder ends" if then is None else f"the next rung backs off to λ × {then:.3g}"
     if mean > allowed_mean:
-        return f"the mean distance {mean:.2f} px passed {allowed_mean:.2f} px: the ladder ends"
+        return f"the mean distance {mean:.2f} px passed {allowed_mean:.2f} px: {after}"
     if worst > allowed_worst:
-        return f"the worst miss {worst:.1f} px passed {allowed_worst:.1f} px: the ladder ends"
-    return f"{pins} more overlap(s) on a clamp bound: the ladder ends"
+        return f"the worst miss {worst:.1f} px passed {allowed_worst:.1f} px: {after}"
+    return f"{pins} more overlap(s) on a clamp bound: {after}"
 
 
 def _unresumable(saved: dict[str, Any], plans: list[MotorPlan], settings: OptimiserSettings,

@@ -74,7 +74,13 @@ class FitParams(OptimisationParams):
     21 at 600 (18), all 21 meet every goal at 300 steps (18), mean Chamfer 0.418 px
     averaged (0.428). With a first barrier on the windows' gap alone, lr_ac 0.002 and
     0.004 gave 19 as rapid with 20 meeting every goal; without a barrier
-    temptTag-2010_7_28_15_3_5's two hooks slid their overlaps onto the floor."""
+    temptTag-2010_7_28_15_3_5's two hooks slid their overlaps onto the floor. Since spec
+    16 a rung of the tempo ladder that leaves the goals is followed by one at a λ halfway
+    back (``rapid_backs_off``; 15: it ended the ladder and the fit): 49873's first rung
+    (λ × 1.5) took its worst miss from 5.0 to 7.3 px, past the ladder's allowance, and
+    ended it at T_end 0.572 (the authors' 0.52); backed off to × 1.25, 1.375 and 1.44 it
+    ends at 0.449, and over the development set T_end is at or below the authors' on 19
+    of 21 at 300 steps (18), with every goal met on all 21."""
 
     w_trace: float = param(5.0, "Weight of the trace term: the fitted motion's distance "
                            "from the input polylines, both ways (0: the image alone).",
@@ -149,10 +155,15 @@ class FitParams(OptimisationParams):
                                 "350 px, scaled with the canvas), the worst within 8 px "
                                 "and at most 2 px beyond where it was, and no overlap "
                                 "lands on a clamp bound; the most rapid "
-                                "such rung is the result, and the fit ends at the first "
-                                "that leaves them (0: no rungs, every step for the "
+                                "such rung is the result (0: no rungs, every step for the "
                                 "stages).", minimum=0, maximum=20,
                                 earlier={11: 0.0, 12: 0.5})
+    rapid_backs_off: bool = param(True, "A rung of the tempo ladder that leaves the goals "
+                                  "is followed by one at the λ halfway between the last "
+                                  "factor within them and its own, going on from the last "
+                                  "rung within them, so every announced step runs (without "
+                                  "it the first such rung ends the ladder and the fit).",
+                                  earlier={15: False})
     sparsity: str = param("hand", "How plan edits keep the plan sparse: 'hand' (a target only "
                           "for a miss wider than the pen, 3 px at 350, that it fixes; m "
                           "within 1.25× the initial count, +2 below 8) or 'budget' (spec 4's: "
@@ -188,7 +199,8 @@ class FitParams(OptimisationParams):
                               protect_corners=self.keep_corners, sparsity=self.sparsity,
                               strays=self.strays, rescue_mean=self.rescue_mean,
                               unpinned=self.unpinned, unpinned_end=self.unpinned_end,
-                              weigh_time=self.weigh_time, rapid_within=self.rapid_within)
+                              weigh_time=self.weigh_time, rapid_within=self.rapid_within,
+                              backs_off=self.rapid_backs_off)
 
 
 def target_count(targets: str) -> int | None:
