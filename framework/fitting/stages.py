@@ -570,7 +570,7 @@ def _rung_why(within: bool, faster: bool, mean: float, worst: float, pins: int,
         return "within the goals, but no more rapid by the margin"
     after = "the ladder ends" if then is None else f"the next rung backs off to λ × {then:.3g}"
     if mean > allowed_mean:
-        return f"the mean distance {mean:.2f} px passed {allowed_mean:.2f} px: {after}"
+        return f"the mean distance {mean:.3f} px passed {allowed_mean:.3f} px: {after}"
     if worst > allowed_worst:
         return f"the worst miss {worst:.1f} px passed {allowed_worst:.1f} px: {after}"
     return f"{pins} more overlap(s) on a clamp bound: {after}"
