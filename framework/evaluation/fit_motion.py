@@ -66,14 +66,21 @@ def delta_t_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
     return len(pinned_overlaps(plans, tolerance)) / overlaps if overlaps else 0.0
 
 
+def _share_on_bounds(plans: list[Any], field: str, bounds: tuple[float, ...],
+                     tolerance: float) -> float:
+    """Share of the plans' values of ``field`` (one per sub-movement) within ``tolerance``
+    of one of ``bounds``; 0 for no sub-movement."""
+    values = [v for plan in plans for v in getattr(plan, field).detach().cpu().double().tolist()]
+    at = sum(1 for v in values if min(abs(v - b) for b in bounds) <= tolerance)
+    return at / len(values) if values else 0.0
+
+
 def delta_at_clamp(plans: list[Any], limit: float, tolerance: float = 1e-6) -> float:
     """Share of the turning angles δ_i within ``tolerance`` of their clamp ±``limit``
     (radians: the most one sub-movement's arc may turn in the fit, its ``--max-turn``):
     where the model's curvature limit binds (a tight loop or hook drawn with too few
     targets); 0 for no sub-movement."""
-    deltas = [d for plan in plans for d in plan.delta.detach().cpu().double().tolist()]
-    at = sum(1 for d in deltas if abs(abs(d) - limit) <= tolerance)
-    return at / len(deltas) if deltas else 0.0
+    return _share_on_bounds(plans, "delta", (-limit, limit), tolerance)
 
 
 def ac_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
@@ -83,9 +90,7 @@ def ac_at_clamp(plans: list[Any], tolerance: float = 1e-6) -> float:
     no sub-movement (and for a fit whose shapes do not learn: they stay at 0.01)."""
     from inkmotion.sigma_lognormal.params import AC_RANGE
 
-    shapes = [a for plan in plans for a in plan.ac.detach().cpu().double().tolist()]
-    at = sum(1 for a in shapes if min(abs(a - b) for b in AC_RANGE) <= tolerance)
-    return at / len(shapes) if shapes else 0.0
+    return _share_on_bounds(plans, "ac", tuple(AC_RANGE), tolerance)
 
 
 def evaluation_ratios(drawing: Any) -> dict[str, float]:
