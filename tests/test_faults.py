@@ -112,14 +112,17 @@ def test_redis_down_longer_than_a_lease_strands_no_job(services: dict) -> None:
     pool, data = services["pool"], services["data"]
     pool.prefork = True  # as `inkmotion worker` runs: the job in a child the broker's loss ends
     pool.ensure(("o1",))
-    (job,) = submit(env, "text:hello", "--steps", "6000", "--size", "96")  # ~30 s
+    # long enough to be running when the broker goes (1.5 s after its first step), short
+    # enough that its second attempt ends well within the wait below on a loaded machine:
+    # ~30 s alone on 2 cores (6000 steps took 87 s there once the fit grew its edits)
+    (job,) = submit(env, "text:hello", "--steps", "2000", "--size", "96")
     db = env["INKMOTION_DB_URL"]
     deadline = time.monotonic() + 60
     while store.get_job(job, db).status != "running" or not store.get_job(job, db).step:
         assert time.monotonic() < deadline, "the job did not start"
         time.sleep(0.2)
     redis_away(services, 12)  # three leases: expired, the reaper failing to send each look
-    (record,) = wait_all([job], db, timeout=150)
+    (record,) = wait_all([job], db, timeout=240)
     assert record.status == "succeeded" and one_result_set(data, job)
     assert record.attempts >= 2  # the ended attempt, then the one the reaper sent
 
