@@ -47,9 +47,8 @@ def require_franky() -> None:
 def franky_sim_server(address: str, log: Path) -> Iterator[subprocess.Popen]:
     """A franky-sim process serving the FCI at ``address`` until the block ends."""
     require_franky()
-    import franky
-
-    from inkmotion.robot.franka import scheduling_kept
+    from inkmotion.errors import ServiceError
+    from inkmotion.robot.franka import connect, scheduling_kept
 
     with open(log, "wb") as out:
         proc = subprocess.Popen([franky_sim_binary(), "-s", "mujoco", "--hostname", address],
@@ -59,12 +58,12 @@ def franky_sim_server(address: str, log: Path) -> Iterator[subprocess.Popen]:
         while True:
             if proc.poll() is not None:
                 raise RuntimeError(f"franky-sim exited: {log.read_text(errors='replace')}")
-            try:
+            try:  # in a thread that gives up (see test_draw.CONNECT_S), not in libfranka
                 with scheduling_kept():
-                    robot = franky.Robot(address, realtime_config=franky.RealtimeConfig.Ignore)
+                    robot = connect(address, realtime=False, timeout=READY_TIMEOUT_S / 3)
                     del robot
                 break
-            except franky.NetworkException:
+            except ServiceError:
                 if time.monotonic() > deadline:
                     raise
                 time.sleep(0.2)

@@ -422,6 +422,10 @@ def stream(robot: Any, q_plan: np.ndarray, rate: float, *,
                 reason += f"; stopping failed too ({problem})"
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        # the motion holds the recorder (its callback, in C++) and the recorder the motion:
+        # a cycle Python's collector cannot see, which kept every drawing's record (tens of
+        # MB) alive for the rest of a worker's life. The frozen recorder no longer reads it.
+        recorder.motion = None
     return recorder.execution(reason is None, reason, time.perf_counter() - started)
 
 
