@@ -21,6 +21,11 @@ from pathlib import Path
 import pytest
 
 READY_TIMEOUT_S = 30.0
+#: s a test's own connection to franky-sim may take: libfranka's handshake waits in C++
+#: where pytest's timeout cannot end it, so a simulator that accepted the connection and
+#: never answered hung the whole run (seen once, in a 3-process run); through
+#: ``franka.connect`` it fails in this time, naming the address
+CONNECT_S = 30.0
 
 
 def sim_address(last: int) -> str:
@@ -58,9 +63,10 @@ def franky_sim_server(address: str, log: Path) -> Iterator[subprocess.Popen]:
         while True:
             if proc.poll() is not None:
                 raise RuntimeError(f"franky-sim exited: {log.read_text(errors='replace')}")
-            try:  # in a thread that gives up (see test_draw.CONNECT_S), not in libfranka
+            try:  # in a thread that gives up (CONNECT_S), not in libfranka's handshake
                 with scheduling_kept():
-                    robot = connect(address, realtime=False, timeout=READY_TIMEOUT_S / 3)
+                    robot = connect(address, realtime=False,
+                                    timeout=min(CONNECT_S, READY_TIMEOUT_S / 3))
                     del robot
                 break
             except ServiceError:

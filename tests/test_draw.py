@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from franky_fixtures import franky_sim_server, require_franky, sim_address
+from franky_fixtures import CONNECT_S, franky_sim_server, require_franky, sim_address
 
 from inkmotion.errors import InputError, ServiceError
 from inkmotion.jobs.shell import run_job
@@ -32,13 +32,6 @@ pytestmark = pytest.mark.services
 def spec(address: str, **params: object) -> JobSpec:
     return JobSpec(kind="draw", inputs={"plan": str(PLAN)},
                    params={"robot": address, **FAST, **params})
-
-
-#: s a test's own connection to franky-sim may take: libfranka's handshake waits in C++
-#: where pytest's timeout cannot end it, so a simulator that accepted the connection and
-#: never answered hung the whole run (seen once, in a 3-process run); through
-#: ``franka.connect`` it fails in this time, naming the address
-CONNECT_S = 30.0
 
 
 def arm_state(address: str) -> tuple[np.ndarray, np.ndarray]:
