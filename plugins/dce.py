@@ -8,11 +8,12 @@ for a number of targets and the initial turning angles — is
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from inkmotion.errors import SpecError
-from inkmotion.initialisers.dce import DEFAULT_RELEVANCE, dce_plans
+from inkmotion.initialisers.dce import DEFAULT_RELEVANCE, MAX_BEND, dce_plans
 from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
@@ -24,7 +25,8 @@ if TYPE_CHECKING:
 @dataclass
 class DceOptions:
     """Options of the 'dce' initialiser. Spec version 2 placed targets by an absolute
-    threshold of 1 px·rad and started every δ at 0 (``earlier``)."""
+    threshold of 1 px·rad and started every δ at 0, and versions up to 16 clamped the
+    initial δ to the authors' quarter circle (``earlier``)."""
 
     relevance: float = param(DEFAULT_RELEVANCE, "Plan density: the authors' DCE relevance "
                              "(turning ° × l1·l2/(l1+l2) ÷ canvas size) a target must exceed; "
@@ -33,6 +35,10 @@ class DceOptions:
                                     "--dce-relevance).", minimum=0, earlier={2: 1.0})
     bend: bool = param(True, "Start each δ at the trace's bend between targets (else 0).",
                        earlier={2: False})
+    max_bend: float = param(math.degrees(MAX_BEND), "The largest turn an initial δ starts "
+                            "at, degrees (the trace's bend is clamped to it; the fit's "
+                            "--max-turn clamps δ from the first step on).", minimum=0,
+                            maximum=180, earlier={16: 90.0})
 
 
 class DceInitialiser:
@@ -56,6 +62,7 @@ class DceInitialiser:
         relevance: float = DEFAULT_RELEVANCE,
         threshold: float | None = None,
         bend: bool = True,
+        max_bend: float = math.degrees(MAX_BEND),
     ) -> list[MotorPlan]:
         """Plans for every stroke of ``inputs.traces`` (validated first: degenerate strokes
         dropped); ``inputs.targets`` asks for about that many sub-movements in all
@@ -65,7 +72,8 @@ class DceInitialiser:
                             "initialiser for images or captions.")
         return dce_plans(inputs.traces.validated().strokes, max(inputs.canvas),
                          targets=inputs.targets, relevance=relevance, threshold=threshold,
-                         bend=bend, width=width, dtype=dtype, device=device)
+                         bend=bend, max_bend=math.radians(max_bend), width=width,
+                         dtype=dtype, device=device)
 
 
 @hookimpl

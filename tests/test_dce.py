@@ -1,6 +1,7 @@
 """DCE initialiser: salient points of simple shapes, monotonicity, radius, registration,
 the canvas-free density, a count of targets, and the initial turning angles."""
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -151,6 +152,38 @@ def test_initial_turns_recover_the_arc_of_a_sub_movement(delta: float) -> None:
                                  delta=delta, dtype=torch.float64)
     arc = sample(plan, 400).positions
     assert initial_turns(arc, np.array([0, len(arc) - 1]))[0] == pytest.approx(delta, abs=0.01)
+
+
+@pytest.mark.parametrize("delta", [2.4, -2.9])
+def test_the_bend_of_a_loop_starts_past_a_quarter_circle(delta: float) -> None:
+    """A script loop's sub-movement turns most of a half circle: its initial δ is the
+    trace's bend, clamped to the half circle (``max_bend`` π), and to the quarter circle
+    only where asked (spec 16's clamp)."""
+    from inkmotion.outputs.sampling import sample
+    from inkmotion.sigma_lognormal.plan import MotorPlan
+
+    plan = MotorPlan.from_points(torch.tensor([[10.0, 20.0], [40.0, 140.0]]),
+                                 delta=delta, dtype=torch.float64)
+    arc = sample(plan, 400).positions
+    ends = np.array([0, len(arc) - 1])
+    assert initial_turns(arc, ends)[0] == pytest.approx(delta, abs=0.01)
+    assert initial_turns(arc, ends, math.pi / 2)[0] == math.copysign(math.pi / 2, delta)
+
+
+def test_the_dce_initialiser_clamps_the_bend_to_its_max_bend() -> None:
+    from inkmotion.outputs.sampling import sample
+    from inkmotion.sigma_lognormal.plan import MotorPlan
+
+    plan = MotorPlan.from_points(torch.tensor([[10.0, 20.0], [40.0, 140.0]]), delta=2.8,
+                                 dtype=torch.float64)
+    stroke = np.asarray(sample(plan, 400).positions)
+    init = inkmotion.plugin("initialiser", "dce")
+    inputs = JobInputs((350, 350), traces=Traces([stroke]), targets=1)
+    wide = init(inputs, dtype=torch.float64)
+    narrow = init(inputs, dtype=torch.float64, max_bend=90.0)
+    assert [p.m for p in wide] == [p.m for p in narrow] == [1]
+    assert float(wide[0].delta[0]) == pytest.approx(2.8, abs=0.02)
+    assert float(narrow[0].delta[0]) == pytest.approx(math.pi / 2)
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data is absent")

@@ -77,6 +77,18 @@ def test_hard_corpus_tags(tmp_path: Path, tag: str) -> None:
     assert report["t_end_ratio_multi"] <= 0.65
 
 
+@pytest.mark.slow
+def test_the_tall_loops_of_a_script_word_are_drawn(tmp_path: Path) -> None:
+    """giraffe's two f loops are each a few sub-movements that turn most of a half circle:
+    started at a quarter circle with δ learning at 0.1 (spec 16) the fit cut them across,
+    0.96 px mean; each δ starting at its bend and learning at 0.2 draws them (0.41 px)
+    within the authors' density (26 targets, 1.25× at most)."""
+    report, _ = _fit("text:giraffe", tmp_path / "out")
+    _meets_the_goals(report)
+    assert report["moves"] <= 32
+    assert report["t_end_ratio_multi"] <= 0.65
+
+
 def test_a_poor_fit_warns_where_and_what_to_try(tmp_path: Path) -> None:
     """One sub-movement per stroke cannot draw a P: the fit ends, says so in one warning
     naming the stroke and the distance, and report.json says "poor"."""

@@ -90,7 +90,7 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     assert bare["smooth_over"] == "path" and bare["w_trace"] == 0.0
     assert bare["rollback"] is False and bare["keep_corners"] is False
     assert bare["initialiser"] == {"name": "dce", "relevance": 2.5, "threshold": 1.0,
-                                   "bend": False}
+                                   "bend": False, "max_bend": 90.0}
     given = full({"version": 2, "kind": "fit", "inputs": {"drawing": "text:hi"},
                   "params": {"steps": 9, "initialiser": {"name": "dce", "threshold": 20.0}}})
     assert given["steps"] == 9
@@ -130,10 +130,16 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     v16 = full({"version": 16, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     # the tempo ladder backs off a rung that leaves the goals instead of ending there
     assert (v15["rapid_backs_off"], v16["rapid_backs_off"]) == (False, True)
+    v17 = full({"version": 17, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    # a script loop's sub-movements start at their bend, up to a half circle, and δ learns
+    # at a rate for that range
+    assert (v16["initialiser"]["max_bend"], v17["initialiser"]["max_bend"]) == (90.0, 180.0)
+    assert (v16["lr_delta"], v17["lr_delta"]) == (0.1, 0.2)
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version
     assert tag["max_turn"] == 90.0  # and the authors' quarter circle
+    assert tag["lr_delta"] == 0.1  # with δ's rate for it
     assert tag["lr_ac"] == 0.0 and "w_floor" not in tag  # fixed shapes, no floor barrier
 
 
@@ -142,7 +148,7 @@ def test_job_json_holds_every_parameter_and_option() -> None:
     full = job.full_spec().params
     assert full["steps"] == 5 and full["size"] == 350
     assert full["initialiser"] == {"name": "dce", "relevance": 2.5, "threshold": None,
-                                   "bend": True}
+                                   "bend": True, "max_bend": 180.0}
     assert full["renderer"] == {"name": "raster"} and full["losses"] == [{"name": "mse"}]
     assert to_dict(job.params)["initialiser"] == {"name": "dce"}
 

@@ -35,7 +35,10 @@ falls monotonically with the threshold).
 
 Initial turning angles. Between two kept vertices the trace is one sub-movement's path; a
 circular arc through its ends with the trace's largest signed deviation h from the chord
-c has δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)), clamped to ±π/2. Starting from the
+c has δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)), clamped to ±``max_bend`` (π, the
+half circle a fit's arc may turn; spec 16 and before π/2, the authors' quarter circle,
+which started the sub-movements of a script loop, such as an f's, at half their turn:
+the fit then spent its steps turning them and cut the loops across). Starting from the
 bend the trace has, rather than δ = 0 (straight chords), lets the optimiser spend its
 steps on timing and overlap. ``bend = false`` starts every δ at 0 (the authors').
 
@@ -60,6 +63,9 @@ if TYPE_CHECKING:
 DEFAULT_THRESHOLD = 1.0
 #: the default density: the authors' relevance, degrees × half harmonic mean length / size
 DEFAULT_RELEVANCE = 2.5
+#: the largest initial turning angle, radians: the half circle a fit's arc may turn
+#: (its ``max_turn``, 180°)
+MAX_BEND = math.pi
 
 
 def _relevance(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> float:
@@ -160,10 +166,12 @@ def threshold_for_moves(strokes: list[np.ndarray], moves: int, size: float) -> f
     return lo if abs(moves_at(strokes, lo) - moves) < abs(moves_at(strokes, hi) - moves) else hi
 
 
-def initial_turns(points: np.ndarray, kept: np.ndarray) -> np.ndarray:
+def initial_turns(points: np.ndarray, kept: np.ndarray,
+                  max_bend: float = MAX_BEND) -> np.ndarray:
     """Turning angles δ (k − 1,) of the sub-movements between consecutive kept vertices
     ``kept`` (k,) of the polyline ``points`` (n, ≥2): the circular arc through the piece's
-    ends with its largest signed deviation from the chord (module docstring). The sign is
+    ends with its largest signed deviation from the chord, clamped to ±``max_bend``
+    radians (module docstring). The sign is
     the kinematics' (δ > 0 bends to the right of the chord in canvas coordinates, y down,
     i.e. cross(chord, point − start) < 0)."""
     p = np.asarray(points, dtype=np.float64)[:, :2]
@@ -177,13 +185,13 @@ def initial_turns(points: np.ndarray, kept: np.ndarray) -> np.ndarray:
         h = (chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / c  # signed distance, (b − a − 1,)
         deviation = float(h[np.argmax(np.abs(h))])
         out[i] = -4.0 * math.atan(2.0 * deviation / c)
-    return np.clip(out, -math.pi / 2, math.pi / 2)
+    return np.clip(out, -max_bend, max_bend)
 
 
 def dce_plans(strokes: list[np.ndarray], size: float, *, targets: int | None = None,
               relevance: float = DEFAULT_RELEVANCE, threshold: float | None = None,
-              bend: bool = True, width: float = 3.0, dtype: Any = None,
-              device: Any = None) -> list[MotorPlan]:
+              bend: bool = True, max_bend: float = MAX_BEND, width: float = 3.0,
+              dtype: Any = None, device: Any = None) -> list[MotorPlan]:
     """One motor plan per stroke of ``strokes`` (each (n, ≥2) px) through its DCE salient
     points, on a canvas whose longer side is ``size`` px (module docstring).
 
@@ -191,7 +199,8 @@ def dce_plans(strokes: list[np.ndarray], size: float, *, targets: int | None = N
     sub-movements over all strokes (:func:`threshold_for_moves`), the absolute
     ``threshold`` (px·rad), or the authors' canvas-relative ``relevance``
     (:func:`relevance_threshold`). ``bend`` starts each δ at the trace's bend
-    (:func:`initial_turns`), else at 0. Plans are float32 unless ``dtype`` says otherwise.
+    (:func:`initial_turns`, at most ``max_bend`` radians), else at 0. Plans are float32
+    unless ``dtype`` says otherwise.
     """
     import torch
 
@@ -204,7 +213,7 @@ def dce_plans(strokes: list[np.ndarray], size: float, *, targets: int | None = N
     plans = []
     for stroke in strokes:
         kept = dce_indices(stroke, threshold)
-        delta = initial_turns(stroke, kept) if bend else np.zeros(len(kept) - 1)
+        delta = initial_turns(stroke, kept, max_bend) if bend else np.zeros(len(kept) - 1)
         plan = MotorPlan.from_points(np.asarray(stroke, dtype=np.float64)[kept],
                                      width=width, dtype=dtype or torch.float32,
                                      device=device)

@@ -49,7 +49,7 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 16
+SPEC_VERSION = 17
 DEFAULT_DEVICE = "auto"
 #: the largest seed a job takes (torch's generator holds 64 bits)
 MAX_SEED = 2**64 - 1

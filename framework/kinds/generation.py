@@ -56,6 +56,7 @@ class GenerationParams(OptimisationParams):
     lr_points: float = redefault(OptimisationParams, "lr_points", 1.0)
     lr_final: float = redefault(OptimisationParams, "lr_final", 0.1)
     max_turn: float = redefault(OptimisationParams, "max_turn", 90.0)
+    lr_delta: float = redefault(OptimisationParams, "lr_delta", 0.1)  # for ±90°, as ever
     lr_ac: float = redefault(OptimisationParams, "lr_ac", 0.0)
     targets: int = param(30, "Number of virtual targets (sub-movements) to start from.",
                          minimum=1, maximum=5000)

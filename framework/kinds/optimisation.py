@@ -51,8 +51,9 @@ class OptimisationParams:
     plan. The defaults are the fit's (:class:`inkmotion.kinds.fit.FitParams` says why); a
     kind with other defaults declares them with :func:`inkmotion.jobs.params.redefault`.
     ``earlier`` holds the fit's defaults of spec version 2 (the authors': 300 steps,
-    λ = 20, w_σ = 50), of versions 3–6 (600 steps decaying to 0.1) and of versions 7–12
-    (400 steps)."""
+    λ = 20, w_σ = 50), of versions 3–6 (600 steps decaying to 0.1), of versions 7–12
+    (400 steps) and of versions up to 16 (δ's learning rate 0.1, set for the quarter
+    circle its range was before version 14)."""
 
     steps: int = param(300, "Adam steps.", minimum=1, maximum=100_000,
                        earlier={2: 300, 6: 600, 12: 400})
@@ -67,7 +68,8 @@ class OptimisationParams:
                             minimum=0)
     lr_points: float = param(2.0, "Learning rate of the virtual targets, px.", minimum=0)
     lr_delta_t: float = param(0.05, "Learning rate of the overlaps Δt.", minimum=0)
-    lr_delta: float = param(0.1, "Learning rate of the turning angles δ.", minimum=0)
+    lr_delta: float = param(0.2, "Learning rate of the turning angles δ, radians.",
+                            minimum=0, earlier={16: 0.1})
     lr_ac: float = param(0.003, "Learning rate of the shapes Ac (0 keeps them fixed): "
                          "each lognormal's skew, so a sub-movement may do most of its "
                          "movement early in its window and the next overlap it sooner.",
