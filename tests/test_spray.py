@@ -110,9 +110,13 @@ def test_preview_colours() -> None:
 def test_an_optimisation_through_spray_lowers_the_image_loss(tmp_path: Path) -> None:
     import json
 
+    # 60 steps: from spec 17 on (δ starts at its bend and learns at 0.2) the paint's loss
+    # falls more slowly in the first steps (0.82× at 40 steps, 0.72× at 60; spec 16:
+    # 0.60×, 0.49×) and ends as low (0.0343 at 300 steps from a lower start; spec 16:
+    # 0.0352)
     out = tmp_path / "fit"
     res = subprocess.run([sys.executable, "-m", "inkmotion", "run", "fit", "text:hi",
-                          "--renderer", "spray", "--steps", "40", "--size", "120",
+                          "--renderer", "spray", "--steps", "60", "--size", "120",
                           "--no-record", "--out", str(out)], capture_output=True, text=True,
                          timeout=600)
     assert res.returncode == 0, res.stderr
