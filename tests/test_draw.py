@@ -5,6 +5,7 @@ sentence with the arm left stopped and nothing half-written in the job folder.""
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import signal
@@ -68,8 +69,6 @@ def test_a_fitted_word_is_drawn_and_the_robots_states_follow_the_plan(sim: str,
     out = tmp_path / "drawn"
     report = run_job(spec(sim, v_max=0.15), out)
     assert report["completed"] and report["robot"]["model"] == "fr3"
-    import gc
-
     gc.collect()  # the drawing's record (a cycle through franky's motion) is not kept alive
     assert not [o for o in gc.get_objects() if type(o) is franka._Stream]
     for name in ("executed.csv", "joints.csv", "cartesian.csv", "side_by_side.png",
