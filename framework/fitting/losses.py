@@ -31,8 +31,11 @@ came out slower than the plans they grew from.
 
 from __future__ import annotations
 
+from typing import Any
+
 import torch
 
+from inkmotion.portable_math import expm1
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
 from inkmotion.sigma_lognormal.params import DELTA_T_RANGE, sigma_mu
@@ -51,10 +54,20 @@ def overlap_gaps(batch: PlanBatch) -> torch.Tensor:
     where they differ, a skewed sub-movement after a symmetric one may peak before it
     although its window opens later. Entries of each path's first sub-movement are
     meaningless (callers mask them)."""
-    sigma, mu = sigma_mu(batch.ac, batch.T)
-    lead = torch.exp(mu - sigma * sigma) - torch.exp(mu - scalar_tensors(mu, 3.0)[0] * sigma)
+    return _gap_parts(batch.delta_t, batch.ac, batch.T)[-1]
+
+
+def _gap_parts(delta_t: torch.Tensor, ac: torch.Tensor, T: torch.Tensor
+               ) -> tuple[torch.Tensor, ...]:
+    """:func:`overlap_gaps` and what its gradient needs: σ, μ, e^{μ−σ²}, e^{μ−3σ}, the
+    peaks' side of the minimum and the gap, (M,) each."""
+    sigma, mu = sigma_mu(ac, T)
+    peak = torch.exp(mu - sigma * sigma)
+    opening = torch.exp(mu - scalar_tensors(mu, 3.0)[0] * sigma)
+    lead = peak - opening
     before = torch.cat([lead[:1], lead[:-1]])
-    return torch.minimum(batch.delta_t, batch.delta_t + (lead - before) / batch.T)
+    peaks = delta_t + (lead - before) / T
+    return sigma, mu, peak, opening, peaks, torch.minimum(delta_t, peaks)
 
 
 def floor_barrier(gap: torch.Tensor, used: torch.Tensor) -> torch.Tensor:
@@ -62,12 +75,63 @@ def floor_barrier(gap: torch.Tensor, used: torch.Tensor) -> torch.Tensor:
     g = gap − floor + :data:`FLOOR_EPSILON`, continued below g = ε along its tangent (a
     peak gap may cross the floor: the push off it stays finite and strong); 0 where
     ``used`` is 0 (each path's Δt_1)."""
+    return _barrier_parts(gap, used)[0]
+
+
+def _barrier_parts(gap: torch.Tensor, used: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`floor_barrier` and its slope ∂B/∂gap (M,): (at − band)/at² inside the band
+    (at = g, or ε below it, where the tangent continues), 0 beyond it and where unused."""
     floor, band, eps = scalar_tensors(gap, DELTA_T_RANGE[0], FLOOR_BAND, FLOOR_EPSILON)
     g = gap - floor + eps
     inside = g < band
     at = torch.where(inside, g.clamp_min(eps), band)  # where the formula is taken: finite
-    b = band / at - 1 + torch.log(at / band) + (at - band) / (at * at) * (g - at)
-    return torch.where(inside, b, 0.0) * used
+    rise = (at - band) / (at * at)
+    b = band / at - 1 + torch.log(at / band) + rise * (g - at)
+    return torch.where(inside, b, 0.0) * used, torch.where(inside, rise, 0.0) * used
+
+
+class _FloorBarrier(torch.autograd.Function):
+    """:func:`floor_barrier` of :func:`overlap_gaps` as one graph node, (Δt, Ac, T, used)
+    → (M,): the forward the same ops (the same values), the gradient written out
+    (autograd's graph of the two took some 190 ops a step, a twentieth of a fit's step,
+    for an (M,) tensor):
+
+        ∂B/∂gap: :func:`_barrier_parts`' slope;  ∂gap/∂Δt_i = 1 (either side of the min);
+        ∂gap_i/∂(lead_i − lead_{i−1}) = 1/T_i where the peaks' side is the lesser (half
+        of it at a tie, as ``torch.minimum`` shares it);
+        lead = e^{μ−σ²} − e^{μ−3σ},  μ′ = dμ/dσ = 3 − 6e^{6σ}/(e^{6σ} − 1),
+        dlead/dσ = e^{μ−σ²}(μ′ − 2σ) − e^{μ−3σ}(μ′ − 3),  dσ/dAc = 1/(2σ(1 − Ac)).
+
+    T gets no gradient (a fit never learns it)."""
+
+    @staticmethod
+    def forward(ctx: Any, delta_t: torch.Tensor, ac: torch.Tensor, T: torch.Tensor,
+                used: torch.Tensor) -> torch.Tensor:
+        sigma, mu, peak, opening, peaks, gap = _gap_parts(delta_t, ac, T)
+        barrier, slope = _barrier_parts(gap, used)
+        if ctx.needs_input_grad[1]:
+            half, one = scalar_tensors(delta_t, 0.5, 1.0)
+            side = torch.where(peaks < delta_t, one, torch.where(peaks == delta_t, half, 0.0))
+            ctx.save_for_backward(slope, side, T, ac, sigma, peak, opening)
+        else:
+            ctx.save_for_backward(slope)
+        return barrier
+
+    @staticmethod
+    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
+        g_gap = grad * ctx.saved_tensors[0]
+        g_ac = None
+        if ctx.needs_input_grad[1]:
+            _, side, T, ac, sigma, peak, opening = ctx.saved_tensors
+            one, two, three, six = scalar_tensors(grad, 1.0, 2.0, 3.0, 6.0)
+            g_rise = g_gap * side / T  # ∂/∂(lead_i − lead_{i−1})
+            # lead_i is sub-movement i+1's ``before``, and lead_0 its own
+            g_lead = g_rise - torch.cat([g_rise[1:], g_rise.new_zeros(1)])
+            g_lead = torch.cat([g_lead[:1] - g_rise[:1], g_lead[1:]])
+            dmu = three - six * torch.exp(six * sigma) / expm1(six * sigma)
+            dlead = peak * (dmu - two * sigma) - opening * (dmu - three)
+            g_ac = g_lead * dlead / (two * sigma * (one - ac))
+        return (g_gap if ctx.needs_input_grad[0] else None), g_ac, None, None
 
 
 def _with_barrier(batch: PlanBatch, t_end: torch.Tensor, used: torch.Tensor,
@@ -76,7 +140,10 @@ def _with_barrier(batch: PlanBatch, t_end: torch.Tensor, used: torch.Tensor,
     for both); ``t_end`` itself where ``w_floor`` is 0."""
     if w_floor <= 0:
         return t_end
-    barrier = floor_barrier(overlap_gaps(batch), used)
+    if batch.T.requires_grad:  # a graph through T too (no fit learns it): autograd's
+        barrier = floor_barrier(overlap_gaps(batch), used)
+    else:
+        barrier = _FloorBarrier.apply(batch.delta_t, batch.ac, batch.T, used)
     return t_end + scalar_tensors(t_end, w_floor)[0] * torch.zeros_like(t_end).index_add(
         0, path, barrier)
 

@@ -28,7 +28,7 @@ from inkmotion.geometry.bezier import hermite_segments
 from inkmotion.plugin_host.protocols import BoundLoss, Renderer, RenderFunction
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
-from inkmotion.sigma_lognormal.kinematics import evaluate_kinematics, plan_window, uniform_times
+from inkmotion.sigma_lognormal.kinematics import evaluate_kinematics, grid_timing, plan_window
 from inkmotion.sigma_lognormal.params import AC_RANGE, DELTA_T_RANGE
 
 #: the optimiser's clamps Δt ≥ 0.1 and Ac ≤ 0.1 (the authors' defaults): a static
@@ -136,8 +136,8 @@ class Objective:
         if self.check_every and self._calls % self.check_every == 0:
             self.replan_if_needed()
         layout = self._layout(batch)
-        timing = batch.timing(layout)  # σ, μ, t0: one graph for T_end and the kinematics
-        times, dt = uniform_times(batch, layout, timing)
+        # σ, μ, t0 and the grid: one graph node for T_end and the kinematics
+        timing, times, dt = grid_timing(batch, layout)
         if layout.window is None and self._static(batch):
             layout = self.layout = plan_window(batch, times, layout, min_delta_t=DELTA_T_MIN,
                                                max_ac=AC_MAX)

@@ -28,12 +28,14 @@ planned once with headroom, with a device-side flag saying when it no longer fit
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import torch
 
+from inkmotion.portable_math import expm1
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch, Timing
+from inkmotion.sigma_lognormal.params import end_times, onsets, sigma_mu
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 EPS = 1e-5
@@ -49,11 +51,143 @@ class Kinematics(NamedTuple):
     accelerations: torch.Tensor | None  # (N, D); None when not asked for (a fit's step)
 
 
-def _rotate(theta: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
-    """R[θ] applied to the planar part of d: θ (M, K), d (M, 2) -> (M, K, 2)."""
-    c, s = torch.cos(theta), torch.sin(theta)
+def _turn(c: torch.Tensor, s: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
+    """R[θ] d from c = cos θ, s = sin θ (M, K) and d (M, 2) -> (M, K, 2)."""
     dx, dy = d[:, None, 0], d[:, None, 1]
     return torch.stack((c * dx - s * dy, s * dx + c * dy), dim=-1)
+
+
+class _Terms(NamedTuple):
+    """The forward quantities of :func:`submovement_terms` (each (M, K), or (M, 1) for
+    those of δ alone), kept for the acceleration and for the gradient."""
+
+    phi: torch.Tensor  # φ(τ)
+    log_phi: torch.Tensor
+    z: torch.Tensor  # (ln φ − μ)/σ
+    lam: torch.Tensor  # Λ
+    w: torch.Tensor  # w(τ)
+    h: torch.Tensor  # (M, 1) 1/sinc(δ/2π)
+    sinc_h: torch.Tensor  # (M, 1) sinc(δ/2π)
+    sinc_w: torch.Tensor  # sinc(δw/2π)
+    cos_v: torch.Tensor  # cos, sin of θ = δ(w − ½), the velocity's angle
+    sin_v: torch.Tensor
+    cos_x: torch.Tensor  # cos, sin of δ(w − 1)/2, the chord's angle
+    sin_x: torch.Tensor
+    rot_theta: torch.Tensor  # (M, K, 2) R[θ] d
+    rot_x: torch.Tensor  # (M, K, 2) R[δ(w − 1)/2] d
+    chord: torch.Tensor  # (M, K, 1) h·w·sinc(δw/2π)
+    x: torch.Tensor  # (M, K, D)
+    v: torch.Tensor  # (M, K, D)
+
+
+def _terms(tau: torch.Tensor, d: torch.Tensor, delta: torch.Tensor, sigma: torch.Tensor,
+           mu: torch.Tensor) -> _Terms:
+    """x_i and v_i of every sub-movement at τ (module docstring), with what they are made
+    of."""
+    # the numbers as 0-d tensors (inkmotion.scalar_tensors): the same bits, fewer casts
+    eps, minus_half, sqrt2pi, sqrt2, one, half, two_pi = scalar_tensors(
+        tau, EPS, -0.5, _SQRT2PI, _SQRT2, 1.0, 0.5, 2.0 * math.pi)
+    phi = torch.relu(tau - eps) + eps
+    log_phi = torch.log(phi)
+    sig, mu_, dl = sigma[:, None], mu[:, None], delta[:, None]
+    z = (log_phi - mu_) / sig  # (M, K)
+    lam = torch.exp(minus_half * z * z) / (sig * sqrt2pi * phi)
+    w = half * (one + torch.erf(z / sqrt2))
+    sinc_h = torch.sinc(dl / two_pi)
+    h = torch.reciprocal(sinc_h)  # (M, 1)
+
+    planar = d[:, :2]
+    theta, theta_x = dl * (w - half), dl * (w - one) * half
+    cos_v, sin_v, cos_x, sin_x = (torch.cos(theta), torch.sin(theta), torch.cos(theta_x),
+                                  torch.sin(theta_x))
+    rot_theta = _turn(cos_v, sin_v, planar)  # R[θ] d
+    sinc_w = torch.sinc(dl * w / two_pi)
+    chord = (h * w * sinc_w)[..., None]
+    rot_x = _turn(cos_x, sin_x, planar)
+    x = chord * rot_x
+    v = (lam * h)[..., None] * rot_theta
+    if d.shape[1] == 3:
+        dz = d[:, None, 2]
+        x = torch.cat((x, (w * dz)[..., None]), dim=-1)
+        v = torch.cat((v, (lam * dz)[..., None]), dim=-1)
+    return _Terms(phi, log_phi, z, lam, w, h, sinc_h, sinc_w, cos_v, sin_v, cos_x, sin_x,
+                  rot_theta, rot_x, chord, x, v)
+
+
+def _sinc_slope(y: torch.Tensor, sinc_y: torch.Tensor, cos_pi_y: torch.Tensor) -> torch.Tensor:
+    """d sinc(y)/dy = (cos πy − sinc y)/y, by its series π(−u/3 + u³/30) (u = πy) where
+    |u| < 0.1 (the difference cancels there; the series' next term is u⁴/280 of it)."""
+    pi, third, thirtieth, small = scalar_tensors(y, math.pi, 1.0 / 3.0, 1.0 / 30.0, 0.1)
+    u = pi * y
+    near = u.abs() < small
+    series = pi * (u * u * u * thirtieth - u * third)
+    return torch.where(near, series, (cos_pi_y - sinc_y) / torch.where(near, small, y))
+
+
+class _SubmovementTerms(torch.autograd.Function):
+    """x_i, v_i of :func:`submovement_terms` as one graph node (a fit's step, where no
+    acceleration is asked for), the forward the same ops, the gradient written out
+    (autograd's graph of it took some 240 ops a step). With G_x, G_v the incoming
+    gradients, R_v = R[θ]d, R_x = R[δ(w − 1)/2]d, c the chord h·q, q = w·sinc(δw/2π),
+    ⊥ the quarter turn (a, b) ↦ (−b, a):
+
+        ∂/∂Λ = h⟨G_v, R_v⟩ (+ G_vz d_z),   ∂/∂θ = Λh⟨G_v, R_v⊥⟩,
+        ∂/∂c = ⟨G_x, R_x⟩,   ∂/∂θ_x = c⟨G_x, R_x⊥⟩,   ∂/∂d = Σ_k Λh R_vᵀG_v + c R_xᵀG_x,
+        ∂/∂w = δ ∂/∂θ + δ/2 ∂/∂θ_x + h cos(δw/2) ∂/∂c (+ G_xz d_z),
+        ∂/∂δ = Σ_k (w − ½)∂/∂θ + (w − 1)/2 ∂/∂θ_x + h′(Λ⟨G_v, R_v⟩ + q ∂/∂c)
+               + h w²/2π sinc′(δw/2π) ∂/∂c,   h′ = −h² sinc′(δ/2π)/2π,
+        ∂/∂z = σφΛ ∂/∂w − zΛ ∂/∂Λ   (∂w/∂z = e^{−z²/2}/√2π = σφΛ,  ∂Λ/∂z = −zΛ),
+        ∂/∂μ = −Σ_k ∂/∂z / σ,   ∂/∂σ = −Σ_k (z ∂/∂z + Λ ∂/∂Λ)/σ,
+        ∂/∂τ = (∂/∂z/σ − Λ ∂/∂Λ)/φ  where τ > ε (0 below: φ's floor).
+    """
+
+    @staticmethod
+    def forward(ctx: Any, tau: torch.Tensor, d: torch.Tensor, delta: torch.Tensor,
+                sigma: torch.Tensor, mu: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        t = _terms(tau, d, delta, sigma, mu)
+        ctx.save_for_backward(tau, d, delta, sigma, *t[:-2])
+        return t.x, t.v
+
+    @staticmethod
+    def backward(ctx: Any, g_x: torch.Tensor, g_v: torch.Tensor
+                 ) -> tuple[torch.Tensor | None, ...]:
+        tau, d, delta, sigma, *saved = ctx.saved_tensors
+        t = _Terms(*saved, None, None)  # type: ignore[arg-type]
+        eps, half, one, two_pi = scalar_tensors(tau, EPS, 0.5, 1.0, 2.0 * math.pi)
+        sig, dl = sigma[:, None], delta[:, None]
+        gvx, gvy, gxx, gxy = g_v[..., 0], g_v[..., 1], g_x[..., 0], g_x[..., 1]
+        rvx, rvy, rxx, rxy = (t.rot_theta[..., 0], t.rot_theta[..., 1], t.rot_x[..., 0],
+                              t.rot_x[..., 1])
+        chord = t.chord[..., 0]
+        lam_h = t.lam * t.h
+        along = gvx * rvx + gvy * rvy  # ⟨G_v, R_v⟩
+        g_lam = t.h * along
+        g_theta = lam_h * (gvy * rvx - gvx * rvy)
+        g_chord = gxx * rxx + gxy * rxy
+        g_theta_x = chord * (gxy * rxx - gxx * rxy)
+        # Rᵀg = (c g_x + s g_y, −s g_x + c g_y), for each of the two turns
+        g_dx = lam_h * (t.cos_v * gvx + t.sin_v * gvy) + chord * (t.cos_x * gxx + t.sin_x * gxy)
+        g_dy = lam_h * (t.cos_v * gvy - t.sin_v * gvx) + chord * (t.cos_x * gxy - t.sin_x * gxx)
+        cos_w = torch.cos(dl * t.w * half)  # ∂q/∂w, and cos(π·δw/2π) of sinc′
+        g_w = dl * g_theta + dl * half * g_theta_x + t.h * cos_w * g_chord
+        parts = [g_dx.sum(1), g_dy.sum(1)]
+        if d.shape[1] == 3:
+            dz = d[:, None, 2]
+            g_w = g_w + g_x[..., 2] * dz
+            g_lam = g_lam + g_v[..., 2] * dz
+            parts.append((g_x[..., 2] * t.w + g_v[..., 2] * t.lam).sum(1))
+        g_d = torch.stack(parts, dim=1)
+        y_h, y_w = dl / two_pi, dl * t.w / two_pi
+        h_slope = -(t.h * t.h) * _sinc_slope(y_h, t.sinc_h, torch.cos(dl * half)) / two_pi
+        q_slope = t.w * t.w / two_pi * _sinc_slope(y_w, t.sinc_w, cos_w)
+        g_delta = ((t.w - half) * g_theta + (t.w - one) * half * g_theta_x
+                   + h_slope * (t.lam * along + t.w * t.sinc_w * g_chord)
+                   + t.h * q_slope * g_chord).sum(1)
+        g_z = sig * t.phi * t.lam * g_w - t.z * t.lam * g_lam
+        g_sigma = -((t.z * g_z + t.lam * g_lam).sum(1)) / sigma
+        g_mu = -g_z.sum(1) / sigma
+        g_tau = torch.where(tau > eps, (g_z / sig - t.lam * g_lam) / t.phi, 0.0)
+        return g_tau, g_d, g_delta, g_sigma, g_mu
 
 
 def submovement_terms(
@@ -65,37 +199,27 @@ def submovement_terms(
     accelerations: bool = True,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
     """Displacement x_i, velocity and acceleration of each sub-movement at τ: (M, K, D) each
-    (the acceleration None without ``accelerations``: a fit's step needs x and v only)."""
-    # the numbers as 0-d tensors (inkmotion.scalar_tensors): the same bits, fewer casts
-    eps, minus_half, sqrt2pi, sqrt2, one, half, two_pi = scalar_tensors(
-        tau, EPS, -0.5, _SQRT2PI, _SQRT2, 1.0, 0.5, 2.0 * math.pi)
-    phi = torch.relu(tau - eps) + eps
-    log_phi = torch.log(phi)
+    (the acceleration None without ``accelerations``: a fit's step needs x and v only,
+    and takes their gradient from :class:`_SubmovementTerms`)."""
+    if not accelerations:
+        if torch.is_grad_enabled() and any(
+                t.requires_grad for t in (tau, d, delta, sigma, mu)):
+            x, v = _SubmovementTerms.apply(tau, d, delta, sigma, mu)
+        else:
+            t = _terms(tau, d, delta, sigma, mu)
+            x, v = t.x, t.v
+        return x, v, None
+    t = _terms(tau, d, delta, sigma, mu)
     sig, mu_, dl = sigma[:, None], mu[:, None], delta[:, None]
-    z = (log_phi - mu_) / sig  # (M, K)
-    lam = torch.exp(minus_half * z * z) / (sig * sqrt2pi * phi)
-    w = half * (one + torch.erf(z / sqrt2))
-    h = torch.reciprocal(torch.sinc(dl / two_pi))  # (M, 1)
-
     planar = d[:, :2]
-    rot_theta = _rotate(dl * (w - half), planar)  # R[θ] d
-    chord = (h * w * torch.sinc(dl * w / two_pi))[..., None]
-    x = chord * _rotate(dl * (w - one) * half, planar)
-    v = (lam * h)[..., None] * rot_theta
-    a = None
-    if accelerations:
-        lam_dot = lam * (mu_ - sig * sig - log_phi) / (sig * sig * phi)
-        perp = torch.stack((-planar[:, 1], planar[:, 0]), dim=-1)
-        rot_theta_perp = _rotate(dl * (w - half), perp)  # Ṙ[θ] d = R[θ] d⊥
-        a = ((lam_dot * h)[..., None] * rot_theta
-             + (dl * lam * lam * h)[..., None] * rot_theta_perp)
+    lam_dot = t.lam * (mu_ - sig * sig - t.log_phi) / (sig * sig * t.phi)
+    perp = torch.stack((-planar[:, 1], planar[:, 0]), dim=-1)
+    rot_theta_perp = _turn(t.cos_v, t.sin_v, perp)  # Ṙ[θ] d = R[θ] d⊥
+    a = ((lam_dot * t.h)[..., None] * t.rot_theta
+         + (dl * t.lam * t.lam * t.h)[..., None] * rot_theta_perp)
     if d.shape[1] == 3:
-        dz = d[:, None, 2]
-        x = torch.cat((x, (w * dz)[..., None]), dim=-1)
-        v = torch.cat((v, (lam * dz)[..., None]), dim=-1)
-        if a is not None:
-            a = torch.cat((a, (lam_dot * dz)[..., None]), dim=-1)
-    return x, v, a
+        a = torch.cat((a, (lam_dot * d[:, None, 2])[..., None]), dim=-1)
+    return t.x, t.v, a
 
 
 def _window_bounds(
@@ -264,9 +388,85 @@ def uniform_times(batch: PlanBatch, layout: GridLayout,
     """The uniform grid of each path: t_k = k·T_end/n_p, k = 0..n_p (n_p = counts − 1; on
     the fitting grid n_p = 5·m_p). Returns (times (N,), dt (P,)), carrying the gradient of
     T_end; ``timing`` as for :func:`evaluate_kinematics`."""
-    t_end = batch.end_times(layout, timing)  # (P,)
+    return _uniform(batch.end_times(layout, timing), layout)
+
+
+def _uniform(t_end: torch.Tensor, layout: GridLayout) -> tuple[torch.Tensor, torch.Tensor]:
+    """The uniform grid (times (N,), dt (P,)) of paths ending at ``t_end`` (P,)."""
     dt = t_end / (layout.counts - 1).to(t_end.dtype)
     return layout.sample_step.to(dt.dtype) * dt.index_select(0, layout.sample_path), dt
+
+
+class _GridTiming(torch.autograd.Function):
+    """σ, μ, t0 (M,) and the uniform grid (times (N,), dt (P,)) of a batch from its Δt, Ac
+    and T, as one graph node: the forward :meth:`PlanBatch.timing` and
+    :func:`uniform_times` (the same ops), the gradient written out (autograd's graph of
+    them took some 180 ops a step). With the incoming gradients G and the grid's
+    t_k = k·dt_p, dt_p = T_end_p/n_p, T_end_p = t0_m + e^{μ_m+3σ_m} (m the path's last
+    sub-movement), t0 the running sum within a path of s_1 = −L_1, s_i = Δt_i T_i +
+    L_{i−1} − L_i (L = e^{μ−3σ}), σ = √(−ln(1 − Ac)), μ = 3σ − ln((e^{6σ} − 1)/T):
+
+        ∂/∂T_end_p = (G_dt_p + Σ_k k G_t_k)/n_p,
+        ∂/∂s_j = Σ_{i ≥ j in its path} ∂/∂t0_i,   ∂/∂Δt_i = T_i ∂/∂s_i (i ≥ 2),
+        ∂/∂L_i = −∂/∂s_i + ∂/∂s_{i+1} (i + 1 in the same path),
+        ∂/∂μ += L ∂/∂L + e^{μ+3σ} ∂/∂T_end,   ∂/∂σ += −3L ∂/∂L + 3e^{μ+3σ} ∂/∂T_end,
+        ∂/∂Ac = (∂/∂σ + μ′ ∂/∂μ)/(2σ(1 − Ac)),   μ′ = 3 − 6e^{6σ}/(e^{6σ} − 1).
+
+    T gets no gradient (a fit never learns it)."""
+
+    @staticmethod
+    def forward(ctx: Any, delta_t: torch.Tensor, ac: torch.Tensor, T: torch.Tensor,
+                layout: GridLayout) -> tuple[torch.Tensor, ...]:
+        sigma, mu = sigma_mu(ac, T)
+        t0 = onsets(delta_t, T, sigma, mu, layout)
+        times, dt = _uniform(end_times(t0, sigma, mu, layout), layout)
+        ctx.layout = layout
+        ctx.save_for_backward(ac, T, sigma, mu)
+        return sigma, mu, t0, times, dt
+
+    @staticmethod
+    def backward(ctx: Any, g_sigma: torch.Tensor, g_mu: torch.Tensor, g_t0: torch.Tensor,
+                 g_times: torch.Tensor, g_dt: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
+        layout: GridLayout = ctx.layout
+        ac, T, sigma, mu = ctx.saved_tensors
+        one, two, three, six = scalar_tensors(sigma, 1.0, 2.0, 3.0, 6.0)
+        n_paths, n_moves = layout.n_paths, layout.n_moves
+        last = layout.last_move
+        steps = layout.sample_step.to(sigma.dtype)
+        g_dt = g_dt + g_dt.new_zeros(n_paths).index_add(0, layout.sample_path, steps * g_times)
+        g_end = g_dt / (layout.counts - 1).to(sigma.dtype)  # (P,)
+        closing = torch.exp(mu.index_select(0, last) + three * sigma.index_select(0, last))
+        at_last = lambda v: g_end.new_zeros(n_moves).index_add(0, last, v)  # noqa: E731
+        g_t0 = g_t0 + at_last(g_end)
+        # t0_i = Σ_{j ≤ i in its path} s_j: each s_j gets the t0 gradients from j to the end
+        after = torch.cat((g_t0.flip(0).cumsum(0).flip(0), g_t0.new_zeros(1)))  # (M + 1,)
+        g_s = after[:n_moves] - after.index_select(
+            0, layout.last_move.index_select(0, layout.move_path) + 1)
+        later = (~layout.first).to(sigma.dtype)  # (M,) Δt_i and L_{i−1} take part
+        lead = torch.exp(mu - three * sigma)
+        g_lead = torch.cat((g_s[1:] * later[1:], g_s.new_zeros(1))) - g_s
+        g_mu = g_mu + lead * g_lead + at_last(closing * g_end)
+        g_sigma = g_sigma - three * lead * g_lead + at_last(three * closing * g_end)
+        g_delta_t = g_s * T * later if ctx.needs_input_grad[0] else None
+        g_ac = None
+        if ctx.needs_input_grad[1]:
+            dmu = three - six * torch.exp(six * sigma) / expm1(six * sigma)
+            g_ac = (g_sigma + dmu * g_mu) / (two * sigma * (one - ac))
+        return g_delta_t, g_ac, None, None
+
+
+def grid_timing(batch: PlanBatch, layout: GridLayout
+                ) -> tuple[Timing, torch.Tensor, torch.Tensor]:
+    """``batch.timing(layout)`` and ``uniform_times(batch, layout)`` of a fit's step:
+    (σ, μ, t0), times (N,), dt (P,), the same values; their gradient from
+    :class:`_GridTiming` where one is wanted (and T has none)."""
+    if torch.is_grad_enabled() and not batch.T.requires_grad and (
+            batch.delta_t.requires_grad or batch.ac.requires_grad):
+        sigma, mu, t0, times, dt = _GridTiming.apply(batch.delta_t, batch.ac, batch.T,
+                                                     layout)
+        return (sigma, mu, t0), times, dt
+    timing = batch.timing(layout)
+    return (timing, *uniform_times(batch, layout, timing))
 
 
 #: times :func:`kinematics` evaluates at once: a long plan's samples (a plotter's or a
