@@ -616,3 +616,29 @@ def test_the_insertion_budget_keeps_the_plan_within_a_quarter() -> None:
     assert [budget(m, 0.2) for m in (1, 3, 4, 11, 29, 32)] == [0, 0, 1, 2, 6, 6]
     assert all(m + budget(m, 0.2) <= 1.25 * m for m in range(1, 200))
     assert budget(40, 0.0) == 0
+
+
+@pytest.mark.parametrize("settle", [False, True])
+def test_a_rung_that_settles_runs_its_rates_down_to_the_decays_end(settle: bool) -> None:
+    """Spec 18: each rung's learning rates go from the middle of the stages' decay to its
+    end over the rung's own steps (a plan judged after it settled); before, every step of
+    a rung ran at the middle's rates."""
+    from inkmotion.fitting.optimise import OptimiserSettings, cosine
+    from inkmotion.fitting.stages import RefineSettings, _tempo_ladder
+
+    start = _rung_result(0.0, 2.0)
+    ladder = _tempo_ladder(start, start, plans_of=[2], strokes=[np.array([[0.0, 0.0],
+                                                                          [100.0, 0.0]])],
+                           size=350.0, settings=OptimiserSettings(400, 2.0, 0.05, 0.1, 0.0, 0.3),
+                           refine=RefineSettings(rounds=2, rapid_within=0.5, backs_off=True,
+                                                 rungs_settle=settle),
+                           observers=None, record=[], done=320, decay=320, rung_steps=20)
+    stage = next(ladder).settings
+    total = stage.schedule_total or stage.steps
+    factors = [cosine(stage.schedule_start + k, total, stage.lr_final) for k in range(20)]
+    assert factors[0] == pytest.approx(0.3 + 0.7 * 0.5)  # the middle of the decay
+    if settle:
+        falling = all(a > b for a, b in zip(factors[:-1], factors[1:], strict=True))
+        assert factors[-1] < 0.31 and falling
+    else:
+        assert factors[-1] > 0.55  # still near the middle

@@ -28,7 +28,9 @@ the tempo ladder's mean within 0.55 px; 14: a sub-movement's arc may turn up to 
 circle, ``max_turn`` 180° where the authors clamp it at 90°; 15: the lognormals' shapes
 Ac learn, ``lr_ac``, and the overlaps' floor barrier, ``w_floor``; 16: a rung of the
 tempo ladder that leaves the goals backed off from, ``rapid_backs_off``, instead of
-ending the fit). Those
+ending the fit; 17: a loop's sub-movements start at their bend, the 'dce'
+initialiser's ``max_bend`` 180° and ``lr_delta`` 0.2; 18: each rung of the ladder runs its
+learning rates down over its own steps, ``rapid_settle``). Those
 defaults are declared once, with their history, on the parameters themselves
 (``param(..., earlier={2: ...})``), so a spec keeps its version and a field it leaves
 out takes that version's default when it is resolved against its kind
@@ -49,7 +51,7 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 17
+SPEC_VERSION = 18
 DEFAULT_DEVICE = "auto"
 #: the largest seed a job takes (torch's generator holds 64 bits)
 MAX_SEED = 2**64 - 1
