@@ -35,10 +35,9 @@ from typing import Any
 
 import torch
 
-from inkmotion.portable_math import expm1
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch
-from inkmotion.sigma_lognormal.params import DELTA_T_RANGE, sigma_mu
+from inkmotion.sigma_lognormal.params import DELTA_T_RANGE, sigma_mu, sigma_mu_slopes
 
 #: the gap Δt − floor below which the floor barrier acts (Δt's units: a share of T_i)
 FLOOR_BAND = 0.05
@@ -123,14 +122,14 @@ class _FloorBarrier(torch.autograd.Function):
         g_ac = None
         if ctx.needs_input_grad[1]:
             _, side, T, ac, sigma, peak, opening = ctx.saved_tensors
-            one, two, three, six = scalar_tensors(grad, 1.0, 2.0, 3.0, 6.0)
+            two, three = scalar_tensors(grad, 2.0, 3.0)
             g_rise = g_gap * side / T  # ∂/∂(lead_i − lead_{i−1})
             # lead_i is sub-movement i+1's ``before``, and lead_0 its own
             g_lead = g_rise - torch.cat([g_rise[1:], g_rise.new_zeros(1)])
             g_lead = torch.cat([g_lead[:1] - g_rise[:1], g_lead[1:]])
-            dmu = three - six * torch.exp(six * sigma) / expm1(six * sigma)
+            dmu, dac = sigma_mu_slopes(ac, sigma)
             dlead = peak * (dmu - two * sigma) - opening * (dmu - three)
-            g_ac = g_lead * dlead / (two * sigma * (one - ac))
+            g_ac = g_lead * dlead / dac
         return (g_gap if ctx.needs_input_grad[0] else None), g_ac, None, None
 
 

@@ -519,10 +519,9 @@ def _tempo_ladder(result: FitResult, first: FitResult, *, plans_of: list[int],
     best = t_end_ratio(plans_of, first.initial_t_end, result.final_t_end)
     if not math.isfinite(best):  # no path of 2+ sub-movements: no overlap to shorten
         return result, done, 0.0
-    stage = (replace(settings, steps=rung_steps, schedule_start=rung_steps,
-                     schedule_total=2 * rung_steps) if refine.rungs_settle
-             else replace(settings, steps=rung_steps, schedule_start=decay // 2,
-                          schedule_total=decay))
+    # from the middle of the decay: to its end over the rung's steps, or on at its rate
+    middle, whole = (rung_steps, 2 * rung_steps) if refine.rungs_settle else (decay // 2, decay)
+    stage = replace(settings, steps=rung_steps, schedule_start=middle, schedule_total=whole)
     total = done + len(TEMPO_RUNGS) * rung_steps
     base, wall = result, 0.0  # the last rung within the goals (the staged fit's result)
     within_factor, beyond_factor = 1.0, math.inf  # λ factors bracketing the most it takes

@@ -32,10 +32,9 @@ from typing import Any, NamedTuple
 
 import torch
 
-from inkmotion.portable_math import expm1
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout, PlanBatch, Timing
-from inkmotion.sigma_lognormal.params import end_times, onsets, sigma_mu
+from inkmotion.sigma_lognormal.params import end_times, onsets, sigma_mu, sigma_mu_slopes
 from inkmotion.sigma_lognormal.plan import MotorPlan
 
 EPS = 1e-5
@@ -429,7 +428,7 @@ class _GridTiming(torch.autograd.Function):
                  g_times: torch.Tensor, g_dt: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
         layout: GridLayout = ctx.layout
         ac, T, sigma, mu = ctx.saved_tensors
-        one, two, three, six = scalar_tensors(sigma, 1.0, 2.0, 3.0, 6.0)
+        three = scalar_tensors(sigma, 3.0)[0]
         n_paths, n_moves = layout.n_paths, layout.n_moves
         last = layout.last_move
         steps = layout.sample_step.to(sigma.dtype)
@@ -450,8 +449,8 @@ class _GridTiming(torch.autograd.Function):
         g_delta_t = g_s * T * later if ctx.needs_input_grad[0] else None
         g_ac = None
         if ctx.needs_input_grad[1]:
-            dmu = three - six * torch.exp(six * sigma) / expm1(six * sigma)
-            g_ac = (g_sigma + dmu * g_mu) / (two * sigma * (one - ac))
+            dmu, dac = sigma_mu_slopes(ac, sigma)
+            g_ac = (g_sigma + dmu * g_mu) / dac
         return g_delta_t, g_ac, None, None
 
 
