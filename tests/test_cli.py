@@ -140,6 +140,35 @@ def test_sigterm_leaves_nothing_half_written(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_swallowed_interrupt_still_ends_the_job_at_its_next_step() -> None:
+    """A library that catches every exception (rerun logs one raised while it converts an
+    image as a warning) can swallow the KeyboardInterrupt a SIGTERM raises where it lands;
+    the job's StopWhenAsked observer raises it again at the next step. A repeated SIGTERM
+    during the clean-up is ignored (the process is still alive to say so)."""
+    script = """
+import os, signal, sys
+from inkmotion.cli import interrupts
+interrupts.install()
+observer = interrupts.StopWhenAsked()
+observer.on_step(None)  # not asked yet: nothing happens
+try:
+    os.kill(os.getpid(), signal.SIGTERM)
+    for _ in range(1000):
+        pass
+except BaseException:
+    pass  # swallowed, as a library might
+os.kill(os.getpid(), signal.SIGTERM)  # a repeat: ignored
+try:
+    observer.on_step(None)
+except KeyboardInterrupt:
+    print("stopped at the next step")
+"""
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "stopped at the next step"
+
+
 def test_run_config_reproduces_a_job_from_any_folder(tmp_path: Path) -> None:
     """A file given by a relative path is recorded absolute in job.json, so ``run
     --config`` of it works from another folder (the gallery prints that command)."""

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import sys
 import warnings
 from typing import Annotated, Optional
@@ -28,6 +27,7 @@ from inkmotion.cli import (
     clip,
     evaluate,
     gallery,
+    interrupts,
     jobs,
     render,
     robot,
@@ -161,7 +161,7 @@ def main() -> None:
 
     plain_flags()
     warnings.formatwarning = _warning_line
-    signal.signal(signal.SIGTERM, _terminated)
+    interrupts.install()
     try:
         code = reflow_tree(typer.main.get_command(app)).main(standalone_mode=False)
     except InkmotionError as exc:  # a last guard: user errors never show a traceback
@@ -171,6 +171,8 @@ def main() -> None:
         sys.exit(usage_error(exc))
     except Abort:  # Ctrl-C outside a job (a job says what it kept itself)
         report("interrupted.")
+        sys.exit(130)
+    except KeyboardInterrupt:  # one that arrived after a job had reported itself
         sys.exit(130)
     except Exception as exc:  # a third-party plugin's bug is named; inkmotion's own shows
         if _from_the_job_store(exc):
@@ -208,13 +210,6 @@ def _warning_line(message: Warning | str, category: type[Warning], filename: str
 
 
 _python_warning_line = warnings.formatwarning
-
-
-def _terminated(signum: int, frame: object) -> None:
-    """SIGTERM (``kill``, ``timeout``, a container stopped) ends a command as Ctrl-C does:
-    a job's staging folder is removed and nothing half-written is left. A command that
-    manages its own signals (a worker, the studio, a robot in motion) sets its own."""
-    raise KeyboardInterrupt
 
 
 def usage_error(exc: UsageProblem) -> int:

@@ -55,10 +55,12 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False,
     (``as_json``: print report.json to stdout instead; the progress and warnings go to
     stderr either way). Without ``force``, results another run wrote to ``out_dir`` while
     this one ran are not replaced (:func:`inkmotion.jobs.shell.run_job`'s ``replace``)."""
+    from inkmotion.cli.interrupts import StopWhenAsked
     from inkmotion.jobs.shell import run_job
 
     try:
-        report = run_job(spec, out_dir, record=record, progress=True, replace=force)
+        report = run_job(spec, out_dir, [StopWhenAsked()], record=record, progress=True,
+                         replace=force)
     except InkmotionError as exc:
         fail(exc)
     except KeyboardInterrupt:
