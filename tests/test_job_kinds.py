@@ -137,6 +137,9 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     assert (v16["lr_delta"], v17["lr_delta"]) == (0.1, 0.2)
     v18 = full({"version": 18, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     assert (v17["rapid_settle"], v18["rapid_settle"]) == (False, True)
+    v19 = full({"version": 19, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
+    # an edit that halves a goal's miss is kept as one that meets it
+    assert (v18["rescue_halfway"], v19["rescue_halfway"]) == (False, True)
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version

@@ -103,6 +103,8 @@ class RefineSettings:
     sparsity: str = "hand"  # default mode: a key of SPARSITY
     strays: bool = True  # fitted samples beyond the goal's max distance are misses too
     rescue_mean: bool = True  # an edit that brings the mean within its goal is kept too
+    #: an edit that halves a goal's miss rescues it as one that meets the goal does
+    rescue_halfway: bool = False
     unpinned: bool = True  # an edit that pins more overlaps on a clamp bound is rolled back
     #: the last stage, a plain continuation, is undone when it pins more overlaps
     unpinned_end: bool = True
@@ -260,10 +262,18 @@ class _Edits:
                    d.get("sequential", False))
 
 
+def _rescue_words(name: str, goal: float, within: bool) -> str:
+    """Why an edit that gained less than its bar was kept: the goal it met, or whose
+    miss it halved (:func:`_judge`'s ``halfway``)."""
+    if within:
+        return f", the {name} now within the {goal:.1f}-px goal"
+    return f", the {name}'s miss of its {goal:.1f}-px goal halved or better"
+
+
 def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: float,
            entry: dict[str, Any], rule: Sparsity = SPARSITY["budget"],
            rescue_mean: bool = False, final: bool = True, unpinned: bool = False,
-           unpinned_end: bool = False) -> tuple[FitResult, bool]:
+           unpinned_end: bool = False, halfway: bool = False) -> tuple[FitResult, bool]:
     """Keep the stage's ``result`` if it was refitted from an edit that improved the criterion
     (:func:`inkmotion.fitting.quality.criterion`: ``quality`` is the Chamfer (mean, max) px, and
     the T_end ratio where the time is weighed) or from no edit; otherwise roll back to the last
@@ -272,11 +282,13 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: f
     than its targets must gain is kept all the same when it *rescues* the fit: brings the worst
     miss (or, with ``rescue_mean``, the mean distance, when rolling back would end the edits: at
     the ``final`` stage, or with no other way of editing left; where the time is weighed, at
-    once) from above its goal to the rule's ``rescue_margin`` below it, and the fit's accuracy
-    (the criterion without the time) is better; where the time is weighed, also when it frees
-    overlaps Δt the kept plan had on a clamp bound, and its accuracy is better. With
-    ``unpinned``, an edit whose refit leaves more overlaps Δt on a clamp bound than the fit
-    before it is rolled back unless it made a poor fit good: sub-movements that start as nearly
+    once) from above its goal to the rule's ``rescue_margin`` below it (with ``halfway``, or
+    to half its miss beyond the goal or less: the stages after the edit close the rest),
+    and the fit's accuracy (the criterion without the time) is better; where the time is
+    weighed, also when it frees overlaps Δt the kept plan had on a clamp bound, and its
+    accuracy is better. With ``unpinned``, an edit whose refit leaves more overlaps Δt on a
+    clamp bound than the fit before it is rolled back unless it brought the worst miss within
+    its goal (halving it is not enough): sub-movements that start as nearly
     at once as the model allows are more targets than the motion has movements (the plan is no
     longer a model of it). With ``unpinned_end``, the ``final`` stage, when it only went on from
     the last kept result (no edit), is undone the same way: a pair that slid onto the floor
@@ -314,9 +326,13 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: f
     timed = len(quality) > 2
     if rescue_mean and (final or not retry or timed):
         goals.append(("mean distance", 0, GOAL_MEAN_PX * scale))
-    met = [(name, goal) for name, k, goal in goals
+    # (name, goal, within it): a goal missed before the edit, met by its margin after it
+    # or, with halfway, missed by half as much or less
+    met = [(name, goal, quality[k] <= goal * (1 - rule.rescue_margin))
+           for name, k, goal in goals
            if rule.rescue_margin > 0 and edits.quality[k] > goal
-           and quality[k] <= goal * (1 - rule.rescue_margin)]
+           and (quality[k] <= goal * (1 - rule.rescue_margin)
+                or halfway and quality[k] - goal <= (edits.quality[k] - goal) / 2)]
     accurate = _criterion(quality[:2], size) < _criterion(edits.quality[:2], size)
     rescued = bool(met) and accurate
     pins = _new_pins(result, edits.kept) if unpinned or timed else 0
@@ -324,16 +340,15 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: f
     # where time is weighed, the goal of no overlap on a clamp bound is one to rescue too:
     # an edit that frees overlaps the kept plan had pinned, and draws more accurately
     freed = -pins if timed and pins < 0 and accurate else 0
-    if pinned and not (rescued and any(name == "worst miss" for name, _ in met)):
+    if pinned and not (rescued and any(name == "worst miss" and within
+                                       for name, _, within in met)):
         gained = rescued = False  # a denser plan than the motion, for less than a poor fit
     if gained or rescued or freed:
         entry["edit"]["kept"] = True
         entry["edit"]["why"] = (f"the criterion went {before:.3f} → {after:.3f} "
                                 f"({_figures(edits.quality, quality)})"
-                                + ("" if gained else
-                                   f", the {met[0][0]} now within the {met[0][1]:.1f}-px "
-                                   "goal" if rescued else
-                                   f", {freed} overlap(s) no longer on a clamp bound"))
+                                + ("" if gained else _rescue_words(*met[0]) if rescued
+                                   else f", {freed} overlap(s) no longer on a clamp bound"))
         edits.kept, edits.quality = result, quality
         return result, False
     entry["edit"]["kept"] = False
@@ -733,7 +748,8 @@ def _stages(plans: list[MotorPlan], size: float, settings: OptimiserSettings,
             result, rolled = _judge(edits, result, quality, size, entry, refine.rule,
                                     rescue_mean=refine.rescue_mean, final=last,
                                     unpinned=refine.unpinned,
-                                    unpinned_end=refine.unpinned_end)
+                                    unpinned_end=refine.unpinned_end,
+                                    halfway=refine.rescue_halfway)
             if rolled:
                 added -= edits.pending["inserted"] if edits.pending else 0
         if refine.mode == "auto" and (best is None or entry["chamfer_max_px"] < best[0]):

@@ -1,9 +1,9 @@
-"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 16).
+"""The job specification shared by ``inkmotion run`` and ``inkmotion submit`` (version 19).
 
 A job is one validated spec, plain JSON (job.json), so it can travel through the broker
 and reproduce a run::
 
-    {"version": 16, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
+    {"version": 19, "kind": "fit", "inputs": {"drawing": "tag.gml"}, "seed": 0,
      "device": "auto", "threads": 1, "record_every": 10,
      "params": {"steps": 300, ..., "initialiser": {"name": "dce", "threshold": 1.0},
                 "renderer": {"name": "raster"}, "losses": [{"name": "mse"}]}}
@@ -13,7 +13,7 @@ and reproduce a run::
 files (flat ``input``, ``initialiser``, ``renderer``, ``losses``, ``reader`` and a flat
 ``params`` with ``dce_threshold`` and ``record_every``) are laid out anew on load
 (:func:`upgrade_v1`, as version 2), so their job.json still reproduces their run.
-Versions 2 to 16 share one layout and differ only in some defaults of the fit and of
+Versions 2 to 19 share one layout and differ only in some defaults of the fit and of
 the dce initialiser (3: the sparse, refined plan of issue 10; 4: the trace term and
 rolled-back plan edits of issue 19; 5: the 'hand' sparsity of plan edits and the rapid
 defaults of issue 32; 6: the trace term's worst misses, issue 32's words; 7: 400 steps
@@ -30,7 +30,8 @@ Ac learn, ``lr_ac``, and the overlaps' floor barrier, ``w_floor``; 16: a rung of
 tempo ladder that leaves the goals backed off from, ``rapid_backs_off``, instead of
 ending the fit; 17: a loop's sub-movements start at their bend, the 'dce'
 initialiser's ``max_bend`` 180° and ``lr_delta`` 0.2; 18: each rung of the ladder runs its
-learning rates down over its own steps, ``rapid_settle``). Those
+learning rates down over its own steps, ``rapid_settle``; 19: an edit that halves a
+goal's miss kept as one that meets it, ``rescue_halfway``). Those
 defaults are declared once, with their history, on the parameters themselves
 (``param(..., earlier={2: ...})``), so a spec keeps its version and a field it leaves
 out takes that version's default when it is resolved against its kind
@@ -51,7 +52,7 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 18
+SPEC_VERSION = 19
 DEFAULT_DEVICE = "auto"
 #: the largest seed a job takes (torch's generator holds 64 bits)
 MAX_SEED = 2**64 - 1
