@@ -169,6 +169,25 @@ except KeyboardInterrupt:
     assert res.stdout.strip() == "stopped at the next step"
 
 
+def test_an_interrupt_caught_after_an_extension_ran_python_exits_130(tmp_path: Path) -> None:
+    """A KeyboardInterrupt raised inside Python code that a C extension ran through
+    ``PyRun_SimpleString`` is marked unhandled by CPython even once caught, and a command
+    run with ``python -m`` that then calls ``sys.exit(130)`` dies of SIGINT instead (status
+    -2: the SIGTERM test's rare failure). ``exit_interrupted`` exits 130 with its output
+    flushed."""
+    (tmp_path / "ended.py").write_text("""
+import ctypes
+from inkmotion.cli import interrupts
+ctypes.pythonapi.PyRun_SimpleString(b"raise KeyboardInterrupt")  # as an extension might
+print("interrupted; its clean-up said", end="")
+interrupts.exit_interrupted()
+""")
+    res = subprocess.run([sys.executable, "-m", "ended"], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=120)
+    assert res.returncode == 130, res.stderr
+    assert res.stdout == "interrupted; its clean-up said"
+
+
 def test_run_config_reproduces_a_job_from_any_folder(tmp_path: Path) -> None:
     """A file given by a relative path is recorded absolute in job.json, so ``run
     --config`` of it works from another folder (the gallery prints that command)."""

@@ -12,6 +12,7 @@ from rich.console import Console
 from typer.core import TyperCommand
 
 from inkmotion.cli.errors import fail
+from inkmotion.cli.interrupts import EXIT_INTERRUPTED
 from inkmotion.cli.run import FORCE_HELP
 from inkmotion.errors import InkmotionError
 from inkmotion.json_files import dumps
@@ -101,7 +102,7 @@ def benchmark_cmd(
         fail(exc)
     except KeyboardInterrupt:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
-        raise typer.Exit(130) from None
+        raise typer.Exit(EXIT_INTERRUPTED) from None
     (err if as_json else out).print(
         f"summaries in {out_dir} (summary.md, summary.html, summary.csv, summary.json)",
         highlight=False)

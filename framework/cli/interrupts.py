@@ -9,12 +9,25 @@ repeated SIGTERM (``timeout``'s or a supervisor's) while the first one's clean-u
 ignored; a second Ctrl-C still cuts it short, as a person pressing it twice means. A
 command that manages its own signals (a worker, the studio, a robot in motion) sets its
 own handlers over these.
+
+A command a signal ended exits with :data:`EXIT_INTERRUPTED` by :func:`exit_interrupted`,
+not ``sys.exit``: CPython marks a ``KeyboardInterrupt`` raised inside code that a C
+extension ran through its ``PyRun_*`` calls as unhandled even when Python code caught it,
+and then kills itself with SIGINT at exit (status −2, not 130), which one run in a few
+dozen of the SIGTERM test did.
 """
 
 from __future__ import annotations
 
+import os
 import signal
+import sys
 from types import FrameType
+from typing import NoReturn
+
+#: the exit status of a command a signal ended (128 + SIGINT: what a shell reports for
+#: Ctrl-C)
+EXIT_INTERRUPTED = 130
 
 #: the signals asked to stop this process, in order
 _asked: list[str] = []
@@ -31,6 +44,16 @@ def install() -> None:
     """Handle SIGINT and SIGTERM as above (the command line's entry point calls it)."""
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _stop)
+
+
+def exit_interrupted() -> NoReturn:
+    """End the process with :data:`EXIT_INTERRUPTED` once its clean-up is done and said:
+    stdout and stderr flushed, then ``os._exit`` (module docstring: why not ``sys.exit``).
+    What atexit handlers would still do is not needed then: the job's staging folder,
+    its recording in it, is already gone, and a benchmark's workers have been joined."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(EXIT_INTERRUPTED)
 
 
 class StopWhenAsked:

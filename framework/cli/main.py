@@ -171,9 +171,9 @@ def main() -> None:
         sys.exit(usage_error(exc))
     except Abort:  # Ctrl-C outside a job (a job says what it kept itself)
         report("interrupted.")
-        sys.exit(130)
+        interrupts.exit_interrupted()
     except KeyboardInterrupt:  # one that arrived after a job had reported itself
-        sys.exit(130)
+        interrupts.exit_interrupted()
     except Exception as exc:  # a third-party plugin's bug is named; inkmotion's own shows
         if _from_the_job_store(exc):
             from inkmotion.settings import load_settings
@@ -188,6 +188,8 @@ def main() -> None:
             raise
         report(blame)
         sys.exit(EXIT_USER)
+    if code == interrupts.EXIT_INTERRUPTED:  # a job ended by a signal, its clean-up said
+        interrupts.exit_interrupted()
     sys.exit(code if isinstance(code, int) else 0)
 
 

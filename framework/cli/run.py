@@ -21,6 +21,7 @@ from typing import Annotated, Any, Optional
 import typer
 
 from inkmotion.cli.errors import EXIT_USAGE, fail
+from inkmotion.cli.interrupts import EXIT_INTERRUPTED, StopWhenAsked
 from inkmotion.cli.kind_commands import IO_PANEL, KindGroup, kind_command, spec_from_options
 from inkmotion.errors import InkmotionError
 from inkmotion.json_files import dumps
@@ -55,7 +56,6 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False,
     (``as_json``: print report.json to stdout instead; the progress and warnings go to
     stderr either way). Without ``force``, results another run wrote to ``out_dir`` while
     this one ran are not replaced (:func:`inkmotion.jobs.shell.run_job`'s ``replace``)."""
-    from inkmotion.cli.interrupts import StopWhenAsked
     from inkmotion.jobs.shell import run_job
 
     try:
@@ -65,7 +65,7 @@ def execute(spec: Any, out_dir: Path, record: bool, as_json: bool = False,
         fail(exc)
     except KeyboardInterrupt:
         typer.echo(f"interrupted; nothing was written to {out_dir}", err=True)
-        raise typer.Exit(130) from None
+        raise typer.Exit(EXIT_INTERRUPTED) from None
     print(dumps(report, str, indent=1) if as_json else summary(report))
     for warning in report.get("warnings") or []:
         typer.secho(f"warning: {warning}", fg="yellow", err=True)
