@@ -29,14 +29,15 @@ from typing import NoReturn
 #: Ctrl-C)
 EXIT_INTERRUPTED = 130
 
-#: the signals asked to stop this process, in order
-_asked: list[str] = []
+#: whether a signal has asked this process to stop
+_asked = False
 
 
 def _stop(signum: int, frame: FrameType | None) -> None:
+    global _asked
     if signum == signal.SIGTERM:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    _asked.append(signal.Signals(signum).name)
+    _asked = True
     raise KeyboardInterrupt
 
 

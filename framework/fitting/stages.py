@@ -328,11 +328,13 @@ def _judge(edits: _Edits, result: FitResult, quality: tuple[float, ...], size: f
         goals.append(("mean distance", 0, GOAL_MEAN_PX * scale))
     # (name, goal, within it): a goal missed before the edit, met by its margin after it
     # or, with halfway, missed by half as much or less
-    met = [(name, goal, quality[k] <= goal * (1 - rule.rescue_margin))
-           for name, k, goal in goals
-           if rule.rescue_margin > 0 and edits.quality[k] > goal
-           and (quality[k] <= goal * (1 - rule.rescue_margin)
-                or halfway and quality[k] - goal <= (edits.quality[k] - goal) / 2)]
+    met = []
+    for name, k, goal in goals:
+        if rule.rescue_margin <= 0 or edits.quality[k] <= goal:
+            continue
+        within = quality[k] <= goal * (1 - rule.rescue_margin)
+        if within or halfway and quality[k] - goal <= (edits.quality[k] - goal) / 2:
+            met.append((name, goal, within))
     accurate = _criterion(quality[:2], size) < _criterion(edits.quality[:2], size)
     rescued = bool(met) and accurate
     pins = _new_pins(result, edits.kept) if unpinned or timed else 0
