@@ -21,9 +21,12 @@ $(VENV)/.installed: pyproject.toml | $(VENV)/bin/python
 
 # the test extras, and plugins written outside the package (tests/plugin_package, the
 # example of docs/plugins.md in examples/), installed like any third-party plugin so the
-# tests can check they are picked up
+# tests can check they are picked up. --no-compile: pip would byte-compile every module of
+# every package (torch's thousands among them), 100 of the install's 177 s here, for the
+# few hundred a test run imports; `make test` lets Python cache those as it first imports
+# them instead (below)
 $(VENV)/.installed-test: pyproject.toml tests/plugin_package/pyproject.toml examples/inkmotion-example-plugin/pyproject.toml | $(VENV)/bin/python
-	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e ".[test]"
+	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q --no-compile -e ".[test]"
 	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e tests/plugin_package
 	PYTHONWARNINGS="ignore:Editable installation" $(PIP) install -q -e examples/inkmotion-example-plugin
 	touch $@ $(VENV)/.installed
@@ -68,11 +71,13 @@ browser:
 
 ## test: create .venv with the test extras, run the whole suite in TEST_JOBS processes
 ## (pytest-xdist; most tests wait on servers, workers and subprocesses, so two processes
-## finish in about 60 % of the time even on 2 cores); TEST_JOBS=0 runs it in this one
+## finish in about 60 % of the time even on 2 cores); TEST_JOBS=0 runs it in this one.
+## PYTHONDONTWRITEBYTECODE is emptied for the run: the test venv is installed without
+## bytecode (--no-compile above), and Python writes it as the tests first import a module
 TEST_JOBS ?= 2
 test: test-venv redis postgres browser
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -n $(TEST_JOBS)
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -n $(TEST_JOBS)
 
 ## gallery: the curated example set (Hershey words; one with a spray preview, its simulated drawing
 ## and its evaluation) -> gallery/out, its site -> gallery/site, screenshots -> gallery/screenshots;
