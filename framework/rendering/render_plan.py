@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from inkmotion.errors import InputError
-from inkmotion.rendering.spray_preview import SprayStyle, spray_preview
 
 if TYPE_CHECKING:
     from inkmotion.plugin_host.protocols import Renderer
@@ -72,18 +71,28 @@ def raster_image(drawing: object, renderer: Renderer, size: int,
     return rgb
 
 
-def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "raster",
-                raster: Renderer | None = None, size: int = 1000, seed: int = 0,
-                colour: str = "#141418", background: str = "#ffffff") -> dict:
-    """Render ``plan_path`` into the PNG ``out``; returns the figures (size, drips, ...).
-    ``renderer`` 'raster' draws with ``raster`` (the caller's 'raster' renderer plugin)."""
-    from inkmotion.sigma_lognormal import Drawing
-
+def check_options(renderer: str, size: int, colour: str, background: str
+                  ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The paint and paper colours (RGB in [0, 1]) of :func:`render_plan`'s options, or an
+    InputError naming the option that is wrong. Imports nothing heavy: ``inkmotion render``
+    refuses a bad option before torch is loaded (under a second, not three)."""
     if renderer not in ("raster", "spray"):
         raise InputError(f"--renderer {renderer!r}: render draws with raster or spray.")
     if not 8 <= size <= MAX_SIZE:
         raise InputError(f"--size {size} must be between 8 and {MAX_SIZE} px.")
-    ink, paper = parse_colour(colour, "--colour"), parse_colour(background, "--background")
+    return parse_colour(colour, "--colour"), parse_colour(background, "--background")
+
+
+def render_plan(plan_path: str | Path, out: str | Path, *, renderer: str = "raster",
+                raster: Renderer | None = None, size: int = 1000, seed: int = 0,
+                colour: str = "#141418", background: str = "#ffffff") -> dict:
+    """Render ``plan_path`` into the PNG ``out``; returns the figures (size, drips, ...).
+    ``renderer`` 'raster' draws with ``raster`` (the caller's 'raster' renderer plugin).
+    The options are checked first (:func:`check_options`)."""
+    from inkmotion.rendering.spray_preview import SprayStyle, spray_preview
+    from inkmotion.sigma_lognormal import Drawing
+
+    ink, paper = check_options(renderer, size, colour, background)
     drawing = Drawing.load(plan_path)
     figures: dict = {"renderer": renderer, "size": size}
     if renderer == "spray":
@@ -113,6 +122,8 @@ def write_rgb_png(path: Path, rgb: np.ndarray) -> None:
 
 def write_spray_png(path: Path, drawing: object, seed: int) -> int:
     """spray.png of a job: the spray preview at twice the canvas size; returns the drips."""
+    from inkmotion.rendering.spray_preview import spray_preview
+
     canvas = drawing.canvas  # type: ignore[attr-defined]
     preview = spray_preview(drawing, 2 * round(max(canvas)), seed)
     write_rgb_png(path, preview.rgb)
