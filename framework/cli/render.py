@@ -40,13 +40,12 @@ def render_cmd(
     if out.suffix.lower() != ".png":
         fail(f"--out {out}: render writes PNG images; name the file *.png.", code=2)
     from inkmotion.outputs import refuse_to_overwrite
+    from inkmotion.plugin_host import plugin
     from inkmotion.rendering.render_plan import check_options, render_plan
 
     try:
         check_options(renderer, size, colour, background)  # before a renderer loads torch
         refuse_to_overwrite(out, force, folder=False)
-        from inkmotion.plugin_host import plugin
-
         raster = plugin("renderer", "raster") if renderer == "raster" else None
         figures = render_plan(plan, out, renderer=renderer, raster=raster, size=size,
                               seed=seed, colour=colour, background=background)
