@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -215,7 +216,9 @@ def test_clip_status_says_what_is_missing_and_what_is_ready(tmp_path: Path) -> N
     from inkmotion.clip.model import load_clip
 
     other = tmp_path / "tiny.pt"
-    torch.save(load_clip(TINY, weights="random").model.state_dict(), other)
+    with warnings.catch_warnings():  # said once per model built: this process may have
+        warnings.filterwarnings("ignore", "CLIP weights are random")  # built it already
+        torch.save(load_clip(TINY, weights="random").model.state_dict(), other)
     wrong = inkmotion("clip", "status", "--weights", str(other), env=env)
     assert wrong.returncode == 1 and "does not load into the model ViT-B-32" in wrong.stderr
     right = inkmotion("clip", "status", "--model", TINY, "--weights", str(other), env=env)
