@@ -13,7 +13,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from inkmotion.errors import SpecError
-from inkmotion.initialisers.dce import DEFAULT_RELEVANCE, MAX_BEND, dce_plans
+from inkmotion.initialisers.dce import (
+    BEND_ESTIMATE,
+    BEND_ESTIMATES,
+    DEFAULT_RELEVANCE,
+    MAX_BEND,
+    dce_plans,
+)
 from inkmotion.jobs.params import param
 from inkmotion.plugin_host import hookimpl
 
@@ -25,8 +31,9 @@ if TYPE_CHECKING:
 @dataclass
 class DceOptions:
     """Options of the 'dce' initialiser. Spec version 2 placed targets by an absolute
-    threshold of 1 px·rad and started every δ at 0, and versions up to 16 clamped the
-    initial δ to the authors' quarter circle (``earlier``)."""
+    threshold of 1 px·rad and started every δ at 0, versions up to 16 clamped the
+    initial δ to the authors' quarter circle, and versions up to 19 started it at the arc
+    through the trace's largest deviation from the chord (``earlier``)."""
 
     relevance: float = param(DEFAULT_RELEVANCE, "Plan density: the authors' DCE relevance "
                              "(turning ° × l1·l2/(l1+l2) ÷ canvas size) a target must exceed; "
@@ -39,6 +46,11 @@ class DceOptions:
                             "at, degrees (the trace's bend is clamped to it; the fit's "
                             "--max-turn clamps δ from the first step on).", minimum=0,
                             maximum=180, earlier={16: 90.0})
+    bend_estimate: str = param(BEND_ESTIMATE, "Which arc an initial δ starts at: 'peak' "
+                               "(through the trace's largest deviation from the chord), "
+                               "'fitted' (closest to the whole trace between the targets) "
+                               "or 'between' (halfway).", choices=BEND_ESTIMATES,
+                               earlier={19: "peak"})
 
 
 class DceInitialiser:
@@ -63,6 +75,7 @@ class DceInitialiser:
         threshold: float | None = None,
         bend: bool = True,
         max_bend: float = math.degrees(MAX_BEND),
+        bend_estimate: str = BEND_ESTIMATE,
     ) -> list[MotorPlan]:
         """Plans for every stroke of ``inputs.traces`` (validated first: degenerate strokes
         dropped); ``inputs.targets`` asks for about that many sub-movements in all
@@ -72,7 +85,8 @@ class DceInitialiser:
                             "initialiser for images or captions.")
         return dce_plans(inputs.traces.validated().strokes, max(inputs.canvas),
                          targets=inputs.targets, relevance=relevance, threshold=threshold,
-                         bend=bend, max_bend=math.radians(max_bend), width=width,
+                         bend=bend, max_bend=math.radians(max_bend),
+                         bend_estimate=bend_estimate, width=width,
                          dtype=dtype, device=device)
 
 

@@ -14,6 +14,7 @@ from inkmotion.geometry.traces import Traces
 from inkmotion.initialisers.dce import (
     dce,
     dce_indices,
+    fitted_turn,
     initial_turns,
     moves_at,
     relevance_threshold,
@@ -168,6 +169,38 @@ def test_the_bend_of_a_loop_starts_past_a_quarter_circle(delta: float) -> None:
     ends = np.array([0, len(arc) - 1])
     assert initial_turns(arc, ends)[0] == pytest.approx(delta, abs=0.01)
     assert initial_turns(arc, ends, math.pi / 2)[0] == math.copysign(math.pi / 2, delta)
+
+
+@pytest.mark.parametrize("delta", [1.1, -2.6, 0.2])
+def test_the_fitted_arc_of_an_arc_is_that_arc(delta: float) -> None:
+    from inkmotion.outputs.sampling import sample
+    from inkmotion.sigma_lognormal.plan import MotorPlan
+
+    plan = MotorPlan.from_points(torch.tensor([[10.0, 20.0], [90.0, 50.0]]), delta=delta,
+                                 dtype=torch.float64)
+    arc = np.asarray(sample(plan, 400).positions)
+    ends = np.array([0, len(arc) - 1])
+    assert fitted_turn(arc) == pytest.approx(delta, abs=0.01)
+    for estimate in ("peak", "fitted", "between"):
+        assert initial_turns(arc, ends, estimate=estimate)[0] == pytest.approx(delta, abs=0.01)
+
+
+def test_a_piece_that_runs_straight_then_turns_starts_straighter_than_its_peak() -> None:
+    """60 px straight, then a quarter circle of radius 10 px: the arc through the peak
+    bulges over the whole chord as far as the turn does; the fitted arc is straighter,
+    and 'between' is halfway."""
+    straight = np.column_stack((np.linspace(0, 60, 61), np.zeros(61)))
+    angle = np.linspace(0, math.pi / 2, 20)[1:]
+    turn = np.column_stack((60 + 10 * np.sin(angle), 10 - 10 * np.cos(angle)))
+    piece = np.vstack((straight, turn))
+    ends = np.array([0, len(piece) - 1])
+    peak, fitted, between = (initial_turns(piece, ends, estimate=e)[0]
+                             for e in ("peak", "fitted", "between"))
+    assert np.sign(peak) == np.sign(fitted) != 0
+    assert abs(fitted) < 0.8 * abs(peak)  # 0.69 against 0.95 rad
+    assert between == pytest.approx(0.5 * (peak + fitted))
+    with pytest.raises(ValueError, match="estimate must be one of"):
+        initial_turns(piece, ends, estimate="mean")
 
 
 def test_the_dce_initialiser_clamps_the_bend_to_its_max_bend() -> None:

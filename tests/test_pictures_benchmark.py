@@ -31,3 +31,18 @@ def test_two_fits_at_once_give_the_rows_of_one_at_a_time(tmp_path: Path, capsys)
 def test_no_fit_at_a_time_is_refused(tmp_path: Path) -> None:
     with pytest.raises(SystemExit):
         main([str(tmp_path), "text:hi", "--jobs", "0"])
+
+
+@pytest.mark.slow
+def test_a_picture_of_graffiti_is_drawn_without_an_arch_over_its_a(tmp_path: Path) -> None:
+    """The clean 350-px picture of text:graffiti: the 'r' runs down, across and up a
+    diagonal into the top of the a's bowl, one sub-movement from the 'r''s foot to the
+    bowl's end. Started at the arc through that piece's peak (spec 19), the fit drew an
+    arch over the whole chord and kept it: 11.7 px from the recorded trace. Started
+    halfway towards the arc closest to the piece (spec 20), 7.5 px."""
+    from inkmotion.benchmarks.pictures import SCANS, run_one
+
+    (scan,) = [s for s in SCANS if s.name == "clean-350-w2"]
+    row = run_one("text:graffiti", scan, tmp_path, None)
+    assert "error" not in row, row
+    assert row["chamfer_max_px"] <= 8.0 and row["chamfer_mean_px"] <= 0.7, row

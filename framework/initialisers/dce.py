@@ -33,12 +33,23 @@ a person makes. ``threshold`` (px·rad, absolute) overrides it; ``targets`` (the
 sub-movements over all strokes (bisection; DCE's removal order is fixed, so the count
 falls monotonically with the threshold).
 
-Initial turning angles. Between two kept vertices the trace is one sub-movement's path; a
-circular arc through its ends with the trace's largest signed deviation h from the chord
-c has δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)), clamped to ±``max_bend`` (π, the
-half circle a fit's arc may turn; spec 16 and before π/2, the authors' quarter circle,
-which started the sub-movements of a script loop, such as an f's, at half their turn:
-the fit then spent its steps turning them and cut the loops across). Starting from the
+Initial turning angles. Between two kept vertices the trace is one sub-movement's path,
+and its δ starts at the bend of a circular arc through the piece's ends (``estimate``):
+
+- ``peak``: the arc through the trace's largest signed deviation h from the chord c,
+  δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)); spec versions up to 19. Right for a
+  piece that is one arc, too round for a piece that runs straight and then turns (a
+  diagonal into the top of an a's bowl): its arc bulges over the whole chord as far as
+  the turn does, and the fit started from that arch kept it (12 px from the trace).
+- ``fitted``: the arc closest to the whole piece, the least mean squared distance both
+  ways between the arc and the piece (:func:`fitted_turn`); straighter where the piece
+  bends only at one end.
+- ``between`` (spec 20 on): halfway between the two.
+
+Each is clamped to ±``max_bend`` (π, the half circle a fit's arc may turn; spec 16 and
+before π/2, the authors' quarter circle, which started the sub-movements of a script
+loop, such as an f's, at half their turn: the fit then spent its steps turning them and
+cut the loops across). On a piece that is one arc all three agree. Starting from the
 bend the trace has, rather than δ = 0 (straight chords), lets the optimiser spend its
 steps on timing and overlap. ``bend = false`` starts every δ at 0 (the authors').
 
@@ -66,6 +77,11 @@ DEFAULT_RELEVANCE = 2.5
 #: the largest initial turning angle, radians: the half circle a fit's arc may turn
 #: (its ``max_turn``, 180°)
 MAX_BEND = math.pi
+#: which arc an initial δ starts at (module docstring): peak, fitted or between
+BEND_ESTIMATES = ("peak", "fitted", "between")
+BEND_ESTIMATE = "between"
+#: :func:`fitted_turn`'s search: a grid over ±max_bend, then a finer one around its best
+FIT_GRID, FIT_REFINE, ARC_SAMPLES = 121, 25, 33
 
 
 def _relevance(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> float:
@@ -166,14 +182,16 @@ def threshold_for_moves(strokes: list[np.ndarray], moves: int, size: float) -> f
     return lo if abs(moves_at(strokes, lo) - moves) < abs(moves_at(strokes, hi) - moves) else hi
 
 
-def initial_turns(points: np.ndarray, kept: np.ndarray,
-                  max_bend: float = MAX_BEND) -> np.ndarray:
+def initial_turns(points: np.ndarray, kept: np.ndarray, max_bend: float = MAX_BEND,
+                  estimate: str = BEND_ESTIMATE) -> np.ndarray:
     """Turning angles δ (k − 1,) of the sub-movements between consecutive kept vertices
-    ``kept`` (k,) of the polyline ``points`` (n, ≥2): the circular arc through the piece's
-    ends with its largest signed deviation from the chord, clamped to ±``max_bend``
-    radians (module docstring). The sign is
-    the kinematics' (δ > 0 bends to the right of the chord in canvas coordinates, y down,
-    i.e. cross(chord, point − start) < 0)."""
+    ``kept`` (k,) of the polyline ``points`` (n, ≥2): the bend of the circular arc through
+    each piece's ends that ``estimate`` names (module docstring: ``peak``, ``fitted`` or
+    ``between``), clamped to ±``max_bend`` radians. The sign is the kinematics' (δ > 0
+    bends to the right of the chord in canvas coordinates, y down, i.e.
+    cross(chord, point − start) < 0)."""
+    if estimate not in BEND_ESTIMATES:
+        raise ValueError(f"estimate must be one of {BEND_ESTIMATES}, got {estimate!r}")
     p = np.asarray(points, dtype=np.float64)[:, :2]
     out = np.zeros(max(len(kept) - 1, 0))
     for i, (a, b) in enumerate(zip(kept[:-1], kept[1:], strict=True)):
@@ -184,13 +202,63 @@ def initial_turns(points: np.ndarray, kept: np.ndarray,
         rel = p[a + 1:b] - p[a]
         h = (chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / c  # signed distance, (b − a − 1,)
         deviation = float(h[np.argmax(np.abs(h))])
-        out[i] = -4.0 * math.atan(2.0 * deviation / c)
+        peak = -4.0 * math.atan(2.0 * deviation / c)
+        if estimate == "peak":
+            out[i] = peak
+            continue
+        fitted = fitted_turn(p[a:b + 1], max_bend)
+        out[i] = fitted if estimate == "fitted" else 0.5 * (peak + fitted)
     return np.clip(out, -max_bend, max_bend)
+
+
+def arc_points(chord: float, delta: np.ndarray, samples: int) -> np.ndarray:
+    """Points (K, samples, 2) evenly along the circular arcs from (0, 0) to (``chord``, 0)
+    that turn δ (K,), in the chord's frame: u along the chord, h = cross(chord, ·)/|chord|
+    (δ > 0 bends to h < 0, :func:`initial_turns`'s sign). The heading runs from −δ/2 to
+    δ/2 over the arc's length L = c·(δ/2)/sin(δ/2); δ = 0 is the chord itself."""
+    t = np.linspace(0.0, 1.0, samples)[None, :]
+    d = np.asarray(delta, dtype=np.float64)[:, None]
+    straight = np.abs(d) < 1e-9
+    safe = np.where(straight, 1.0, d)
+    radius = chord / (2.0 * np.sin(safe / 2))  # L/δ
+    u = np.where(straight, chord * t, radius * (np.sin(safe * (t - 0.5)) + np.sin(safe / 2)))
+    h = np.where(straight, 0.0, -radius * (np.cos(safe * (t - 0.5)) - np.cos(safe / 2)))
+    return np.stack(np.broadcast_arrays(u, h), -1)
+
+
+def fitted_turn(piece: np.ndarray, max_bend: float = MAX_BEND, spacing: float = 1.0) -> float:
+    """δ in [−max_bend, max_bend] of the circular arc through the ends of ``piece`` (n, 2)
+    closest to it: the least sum of the mean squared distances from the piece (resampled
+    every ``spacing`` px) to the arc and from the arc to the piece, searched on a grid of
+    :data:`FIT_GRID` turns and then :data:`FIT_REFINE` around the best (a grid, so the
+    answer is one of its values: a last-bit difference in the distances moves it only
+    where two are tied)."""
+    piece = np.asarray(piece, dtype=np.float64)[:, :2]
+    chord = piece[-1] - piece[0]
+    c = float(np.hypot(*chord))
+    arc_length = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(piece, axis=0).T))))
+    n = max(math.ceil(arc_length[-1] / spacing) + 1, 3)
+    at = np.linspace(0.0, arc_length[-1], n)
+    rel = np.column_stack((np.interp(at, arc_length, piece[:, 0]),
+                           np.interp(at, arc_length, piece[:, 1]))) - piece[0]
+    frame = np.column_stack((rel @ chord, chord[0] * rel[:, 1] - chord[1] * rel[:, 0])) / c
+
+    def cost(turns: np.ndarray) -> np.ndarray:  # (K,)
+        arcs = arc_points(c, turns, ARC_SAMPLES)  # (K, samples, 2)
+        d2 = ((arcs[:, :, None, :] - frame[None, None, :, :]) ** 2).sum(-1)  # (K, s, n)
+        return d2.min(2).mean(1) + d2.min(1).mean(1)
+
+    grid = np.linspace(-max_bend, max_bend, FIT_GRID)
+    best = float(grid[np.argmin(cost(grid))])
+    step = float(grid[1] - grid[0])
+    fine = np.clip(best + np.linspace(-step, step, FIT_REFINE), -max_bend, max_bend)
+    return float(fine[np.argmin(cost(fine))])
 
 
 def dce_plans(strokes: list[np.ndarray], size: float, *, targets: int | None = None,
               relevance: float = DEFAULT_RELEVANCE, threshold: float | None = None,
-              bend: bool = True, max_bend: float = MAX_BEND, width: float = 3.0,
+              bend: bool = True, max_bend: float = MAX_BEND,
+              bend_estimate: str = BEND_ESTIMATE, width: float = 3.0,
               dtype: Any = None, device: Any = None) -> list[MotorPlan]:
     """One motor plan per stroke of ``strokes`` (each (n, ≥2) px) through its DCE salient
     points, on a canvas whose longer side is ``size`` px (module docstring).
@@ -199,7 +267,8 @@ def dce_plans(strokes: list[np.ndarray], size: float, *, targets: int | None = N
     sub-movements over all strokes (:func:`threshold_for_moves`), the absolute
     ``threshold`` (px·rad), or the authors' canvas-relative ``relevance``
     (:func:`relevance_threshold`). ``bend`` starts each δ at the trace's bend
-    (:func:`initial_turns`, at most ``max_bend`` radians), else at 0. Plans are float32
+    (:func:`initial_turns`, the ``bend_estimate`` arc, at most ``max_bend`` radians), else
+    at 0. Plans are float32
     unless ``dtype`` says otherwise.
     """
     import torch
@@ -213,7 +282,8 @@ def dce_plans(strokes: list[np.ndarray], size: float, *, targets: int | None = N
     plans = []
     for stroke in strokes:
         kept = dce_indices(stroke, threshold)
-        delta = initial_turns(stroke, kept, max_bend) if bend else np.zeros(len(kept) - 1)
+        delta = initial_turns(stroke, kept, max_bend, bend_estimate) if bend \
+            else np.zeros(len(kept) - 1)
         plan = MotorPlan.from_points(np.asarray(stroke, dtype=np.float64)[kept],
                                      width=width, dtype=dtype or torch.float32,
                                      device=device)
