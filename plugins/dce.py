@@ -31,9 +31,8 @@ if TYPE_CHECKING:
 @dataclass
 class DceOptions:
     """Options of the 'dce' initialiser. Spec version 2 placed targets by an absolute
-    threshold of 1 px·rad and started every δ at 0, versions up to 16 clamped the
-    initial δ to the authors' quarter circle, and versions up to 19 started it at the arc
-    through the trace's largest deviation from the chord (``earlier``)."""
+    threshold of 1 px·rad and started every δ at 0, and versions up to 16 clamped the
+    initial δ to the authors' quarter circle (``earlier``)."""
 
     relevance: float = param(DEFAULT_RELEVANCE, "Plan density: the authors' DCE relevance "
                              "(turning ° × l1·l2/(l1+l2) ÷ canvas size) a target must exceed; "
@@ -49,8 +48,9 @@ class DceOptions:
     bend_estimate: str = param(BEND_ESTIMATE, "Which arc an initial δ starts at: 'peak' "
                                "(through the trace's largest deviation from the chord), "
                                "'fitted' (closest to the whole trace between the targets) "
-                               "or 'between' (halfway).", choices=BEND_ESTIMATES,
-                               earlier={19: "peak"})
+                               "or 'between' (halfway; try it where a fit from a "
+                               "picture draws an arch over a turn).",
+                               choices=BEND_ESTIMATES)
 
 
 class DceInitialiser:

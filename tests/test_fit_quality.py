@@ -101,6 +101,7 @@ def test_a_poor_fit_warns_where_and_what_to_try(tmp_path: Path) -> None:
     warnings = [line for line in res.stderr.splitlines() if line.startswith("warning:")]
     assert len(warnings) == 1
     assert "misses stroke 1 of 1 by" in warnings[0] and "--steps" in warnings[0]
+    assert "--dce-bend-estimate between" in warnings[0]  # the initialiser's other start
     assert "quality POOR" in res.stdout
 
 

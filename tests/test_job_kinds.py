@@ -140,10 +140,6 @@ def test_a_v2_spec_keeps_the_v2_defaults() -> None:
     v19 = full({"version": 19, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
     # an edit that halves a goal's miss is kept as one that meets it
     assert (v18["rescue_halfway"], v19["rescue_halfway"]) == (False, True)
-    v20 = full({"version": 20, "kind": "fit", "inputs": {"drawing": "text:hi"}, "params": {}})
-    # δ starts halfway between the arc through the trace's peak and the one closest to it
-    assert (v19["initialiser"]["bend_estimate"], v20["initialiser"]["bend_estimate"]) == (
-        "peak", "between")
     tag = full({"version": 2, "kind": "tag", "inputs": {"word": "x"}, "params": {"steps": 5}})
     assert tag["steps"] == 5 and tag["lambda_smooth"] == 1.0 and tag["w_sigma"] == 50.0
     assert tag["lr_final"] == 0.1  # the CLIP kinds keep their own decay at every version
@@ -158,7 +154,7 @@ def test_job_json_holds_every_parameter_and_option() -> None:
     assert full["steps"] == 5 and full["size"] == 350
     assert full["initialiser"] == {"name": "dce", "relevance": 2.5, "threshold": None,
                                    "bend": True, "max_bend": 180.0,
-                                   "bend_estimate": "between"}
+                                   "bend_estimate": "peak"}
     assert full["renderer"] == {"name": "raster"} and full["losses"] == [{"name": "mse"}]
     assert to_dict(job.params)["initialiser"] == {"name": "dce"}
 

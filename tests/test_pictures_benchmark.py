@@ -37,12 +37,13 @@ def test_no_fit_at_a_time_is_refused(tmp_path: Path) -> None:
 def test_a_picture_of_graffiti_is_drawn_without_an_arch_over_its_a(tmp_path: Path) -> None:
     """The clean 350-px picture of text:graffiti: the 'r' runs down, across and up a
     diagonal into the top of the a's bowl, one sub-movement from the 'r''s foot to the
-    bowl's end. Started at the arc through that piece's peak (spec 19), the fit drew an
-    arch over the whole chord and kept it: 11.7 px from the recorded trace. Started
-    halfway towards the arc closest to the piece (spec 20), 7.5 px."""
+    bowl's end. Started at the arc through that piece's peak (the default), the fit
+    draws an arch over the whole chord and keeps it: 11.7 px from the recorded trace.
+    Started halfway towards the arc closest to the piece (``--dce-bend-estimate
+    between``), 7.5 px."""
     from inkmotion.benchmarks.pictures import SCANS, run_one
 
     (scan,) = [s for s in SCANS if s.name == "clean-350-w2"]
-    row = run_one("text:graffiti", scan, tmp_path, None)
+    row = run_one("text:graffiti", scan, tmp_path, None, ("--dce-bend-estimate", "between"))
     assert "error" not in row, row
     assert row["chamfer_max_px"] <= 8.0 and row["chamfer_mean_px"] <= 0.7, row

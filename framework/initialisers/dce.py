@@ -36,15 +36,18 @@ falls monotonically with the threshold).
 Initial turning angles. Between two kept vertices the trace is one sub-movement's path,
 and its δ starts at the bend of a circular arc through the piece's ends (``estimate``):
 
-- ``peak``: the arc through the trace's largest signed deviation h from the chord c,
-  δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)); spec versions up to 19. Right for a
-  piece that is one arc, too round for a piece that runs straight and then turns (a
-  diagonal into the top of an a's bowl): its arc bulges over the whole chord as far as
-  the turn does, and the fit started from that arch kept it (12 px from the trace).
+- ``peak`` (the default): the arc through the trace's largest signed deviation h from
+  the chord c, δ = 4·atan(2h/c) (sagitta h = (c/2)·tan(δ/4)). Right for a piece that is
+  one arc, too round for a piece that runs straight and then turns (a diagonal into the
+  top of an a's bowl): its arc bulges over the whole chord as far as the turn does, and
+  a fit started from that arch may keep it (the picture of text:graffiti: 11.7 px from
+  the recorded trace).
 - ``fitted``: the arc closest to the whole piece, the least mean squared distance both
   ways between the arc and the piece (:func:`fitted_turn`); straighter where the piece
   bends only at one end.
-- ``between`` (spec 20 on): halfway between the two.
+- ``between``: halfway between the two (that picture: 7.5 px). Not the default: over
+  the development set at 600 steps it left text:graffiti slower than the authors'
+  (README, "Pictures").
 
 Each is clamped to ±``max_bend`` (π, the half circle a fit's arc may turn; spec 16 and
 before π/2, the authors' quarter circle, which started the sub-movements of a script
@@ -79,7 +82,7 @@ DEFAULT_RELEVANCE = 2.5
 MAX_BEND = math.pi
 #: which arc an initial δ starts at (module docstring): peak, fitted or between
 BEND_ESTIMATES = ("peak", "fitted", "between")
-BEND_ESTIMATE = "between"
+BEND_ESTIMATE = "peak"
 #: :func:`fitted_turn`'s search: a grid over ±max_bend, then a finer one around its best
 FIT_GRID, FIT_REFINE, ARC_SAMPLES = 121, 25, 33
 

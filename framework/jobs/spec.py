@@ -31,9 +31,7 @@ tempo ladder that leaves the goals backed off from, ``rapid_backs_off``, instead
 ending the fit; 17: a loop's sub-movements start at their bend, the 'dce'
 initialiser's ``max_bend`` 180° and ``lr_delta`` 0.2; 18: each rung of the ladder runs its
 learning rates down over its own steps, ``rapid_settle``; 19: an edit that halves a
-goal's miss kept as one that meets it, ``rescue_halfway``; 20: the 'dce' initialiser's
-δ starts halfway between the arc through the trace's peak and the arc closest to it,
-``bend_estimate``). Those
+goal's miss kept as one that meets it, ``rescue_halfway``). Those
 defaults are declared once, with their history, on the parameters themselves
 (``param(..., earlier={2: ...})``), so a spec keeps its version and a field it leaves
 out takes that version's default when it is resolved against its kind
@@ -54,7 +52,7 @@ from typing import Any
 from inkmotion.errors import SpecError
 from inkmotion.json_files import read_json
 
-SPEC_VERSION = 20
+SPEC_VERSION = 19
 DEFAULT_DEVICE = "auto"
 #: the largest seed a job takes (torch's generator holds 64 bits)
 MAX_SEED = 2**64 - 1

@@ -662,6 +662,9 @@ def quality_verdict(traces: Any, plans: list, size: tuple[float, float], chamfer
     tries.append(f"--steps {2 * p.steps}")
     if p.renderer.name != "raster":
         tries.append("--renderer raster")
+    if p.initialiser.name == "dce" and p.initialiser.options.get("bend_estimate",
+                                                                 "peak") == "peak":
+        tries.append("--dce-bend-estimate between")  # a turn drawn as an arch (dce.py)
     x, y = miss.point
     warning = (f"the fit misses stroke {miss.stroke + 1} of {len(traces.strokes)} by "
                f"{miss.distance:.1f} px near ({x:.0f}, {y:.0f}) px (more than "
