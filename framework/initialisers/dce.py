@@ -47,7 +47,7 @@ and its δ starts at the bend of a circular arc through the piece's ends (``esti
   bends only at one end.
 - ``between``: halfway between the two (that picture: 7.5 px). Not the default: over
   the development set at 600 steps it left text:graffiti slower than the authors'
-  (README, "Pictures").
+  (README, the picture benchmark).
 
 Each is clamped to ±``max_bend`` (π, the half circle a fit's arc may turn; spec 16 and
 before π/2, the authors' quarter circle, which started the sub-movements of a script

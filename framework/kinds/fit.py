@@ -650,6 +650,7 @@ def quality_verdict(traces: Any, plans: list, size: tuple[float, float], chamfer
     ``quality_figures`` and one warning naming where the fit misses most and what to try
     (only then is the worst miss looked for)."""
     from inkmotion.fitting.quality import poor_above, worst_miss
+    from inkmotion.initialisers.dce import BEND_ESTIMATE
 
     longer = max(size)
     limit = poor_above(longer)
@@ -662,9 +663,10 @@ def quality_verdict(traces: Any, plans: list, size: tuple[float, float], chamfer
     tries.append(f"--steps {2 * p.steps}")
     if p.renderer.name != "raster":
         tries.append("--renderer raster")
-    if p.initialiser.name == "dce" and p.initialiser.options.get("bend_estimate",
-                                                                 "peak") == "peak":
-        tries.append("--dce-bend-estimate between")  # a turn drawn as an arch (dce.py)
+    dce = p.initialiser.options if p.initialiser.name == "dce" else None
+    if dce is not None and dce.get("bend", True) \
+            and dce.get("bend_estimate", BEND_ESTIMATE) == "peak":
+        tries.append("--dce-bend-estimate between")  # a turn started as an arch (dce.py)
     x, y = miss.point
     warning = (f"the fit misses stroke {miss.stroke + 1} of {len(traces.strokes)} by "
                f"{miss.distance:.1f} px near ({x:.0f}, {y:.0f}) px (more than "
