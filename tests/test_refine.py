@@ -587,6 +587,17 @@ def test_rung_steps_come_out_of_the_fits_steps() -> None:
     assert _rung_steps(90, RefineSettings(rounds=2, rapid_within=0.5)) == 4
 
 
+def test_the_ladders_share_of_the_steps_is_the_fits_rapid_share() -> None:
+    from inkmotion.fitting.stages import _rung_steps
+    from inkmotion.kinds.fit import FitParams
+
+    default = FitParams().refine_settings()
+    assert _rung_steps(300, default) == 15  # a fifth of 300 over four rungs
+    wider = FitParams(rapid_share=0.4).refine_settings()
+    assert (wider.tempo_share, _rung_steps(300, wider)) == (0.4, 30)
+    assert _rung_steps(300, FitParams(rapid_share=0.4, rapid_within=0.0).refine_settings()) == 0
+
+
 def test_a_rungs_time_weight_lasts_for_the_rung_alone() -> None:
     from inkmotion.fitting.objective import Objective, Weights
     from inkmotion.fitting.stages import _time_weighted

@@ -177,7 +177,7 @@ class FitParams(OptimisationParams):
                                         "targets a plan edit adds do not make the "
                                         "motion's time cheaper (without it, by the "
                                         "plan's own count).", earlier={11: False})
-    rapid_within: float = param(0.55, "After the plan edits, the last fifth of the steps "
+    rapid_within: float = param(0.55, "After the plan edits, the last --rapid-share of the steps "
                                 "seeks a more rapid motion: λ raised in rungs (×1.5, 2, 3, "
                                 "4) while the mean distance stays within this many px (at "
                                 "350 px, scaled with the canvas), the worst within 8 px "
@@ -186,6 +186,11 @@ class FitParams(OptimisationParams):
                                 "such rung is the result (0: no rungs, every step for the "
                                 "stages).", minimum=0, maximum=20,
                                 earlier={11: 0.0, 12: 0.5})
+    rapid_share: float = param(0.2, "The tempo ladder's share of the steps (with "
+                               "--rapid-within above 0), split among its four rungs; the "
+                               "plan's stages and edits take the rest. More gives the "
+                               "ladder more steps to make the motion rapid and the edits "
+                               "fewer to fit it.", minimum=0.05, maximum=0.8)
     rapid_backs_off: bool = param(True, "A rung of the tempo ladder that leaves the goals "
                                   "is followed by one at the λ halfway between the last "
                                   "factor within them and its own, going on from the last "
@@ -234,6 +239,7 @@ class FitParams(OptimisationParams):
                               rescue_halfway=self.rescue_halfway,
                               unpinned=self.unpinned, unpinned_end=self.unpinned_end,
                               weigh_time=self.weigh_time, rapid_within=self.rapid_within,
+                              tempo_share=self.rapid_share,
                               backs_off=self.rapid_backs_off,
                               rungs_settle=self.rapid_settle)
 
