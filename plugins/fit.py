@@ -48,6 +48,12 @@ class FitKind:
 
         check_inputs(job)
 
+    def warm_up(self) -> None:
+        """Import what a fit imports while it runs (:func:`inkmotion.kinds.fit.warm_up`)."""
+        from inkmotion.kinds import fit
+
+        fit.warm_up()
+
     def run(self, job: Job) -> dict[str, Any]:
         from inkmotion.kinds import fit
 

@@ -382,3 +382,47 @@ def test_bench_on_a_missing_gpu_is_one_sentence() -> None:
     res = inkmotion("bench", "--device", "cuda", "--only", "kinematics")
     assert res.returncode == 1 and "no CUDA GPU is available" in res.stderr
     assert "Traceback" not in res.stderr
+
+
+WARMED_UP_FIT = """
+import sys
+from pathlib import Path
+
+from inkmotion.jobs.kind import warm_up_job_kinds
+from inkmotion.jobs.shell import run_job
+from inkmotion.jobs.spec import JobSpec
+import inkmotion.devices  # the job shell's own imports, not the kind's
+
+warmed, failed = warm_up_job_kinds()
+before = set(sys.modules)
+run_job(JobSpec(kind="fit", inputs={"drawing": "sample:tempt-1"},
+                params={"steps": 30, "size": 64}, threads=1), Path(sys.argv[1]))
+late = sorted(m for m in set(sys.modules) - before
+              if m.split(".")[0] in ("inkmotion", "torch", "scipy", "cv2", "numpy", "skimage"))
+print(warmed, failed, late)
+"""
+
+
+def test_a_fit_after_the_kinds_warm_up_imports_nothing_more(tmp_path: Path) -> None:
+    """A worker warms its job kinds up before its first job (workers/tasks.py): the fit's
+    warm_up imports everything a fit of a recorded tag (its edits, ladder and recorded
+    speed peaks included) imports, so that first job runs as the later ones do."""
+    res = subprocess.run([sys.executable, "-c", WARMED_UP_FIT, str(tmp_path / "out")],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    warmed, failed, late = res.stdout.strip().splitlines()[-1].split("] [")
+    assert "'fit'" in warmed and failed == "" and late == "]", res.stdout
+
+
+def test_a_kind_whose_warm_up_fails_is_named_and_the_others_still_warm_up() -> None:
+    from inkmotion.jobs.kind import warm_up_job_kinds
+
+    class Broken:
+        def warm_up(self) -> None:
+            raise ImportError("No module named 'missing_dependency'")
+
+    fit = host().plugins("job-kind")["fit"]
+    warmed, failed = warm_up_job_kinds({"broken": Broken(), "fit": fit, "plain": object()})
+    assert warmed == ["fit"]  # "plain" has no warm_up: nothing to do, nothing said
+    assert failed == ["warming up the job kind 'broken' failed (No module named "
+                      "'missing_dependency'); its first job imports what it needs"]

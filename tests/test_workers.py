@@ -4,6 +4,7 @@ SQLite job store and the real ``inkmotion`` command line (fixtures in service_fi
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -52,6 +53,9 @@ def test_submit_runs_to_success_with_record_and_artifacts(workers, service_env):
     assert (r.status, r.attempts, r.step, r.total, r.kind, r.queue) == (
         "succeeded", 1, 4, 4, "fit", "optimise")
     assert r.worker_host.split("@")[0] in {"w1", "w2"}
+    for name in ("w1", "w2"):  # each warmed the fit up before it took a job (tasks.py)
+        said = workers.log_path(name).read_text(errors="replace")
+        assert re.search(r"worker: warmed up the job kinds [^\n]*\bfit\b[^\n]* in ", said), said
     assert r.started_at >= r.created_at and r.finished_at >= r.started_at
     assert r.losses and "total" in r.losses and r.t_end > 0
     artifacts = assert_one_result_set(r, Path(service_env["INKMOTION_DATA_DIR"]))

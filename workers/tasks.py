@@ -27,7 +27,12 @@ from pathlib import Path
 from typing import Any
 
 from celery.exceptions import SoftTimeLimitExceeded
-from celery.signals import worker_process_init, worker_ready, worker_shutting_down
+from celery.signals import (
+    celeryd_after_setup,
+    worker_process_init,
+    worker_ready,
+    worker_shutting_down,
+)
 
 from inkmotion.jobs.checkpoint import remove_checkpoint
 from inkmotion.workers.app import TASK_NAME, app
@@ -45,6 +50,32 @@ from inkmotion.workers.progress import JobCancelled, StoreProgressObserver
 
 log = logging.getLogger("inkmotion.workers")
 MAX_RETRIES = 6
+
+
+#: what every job on a worker imports besides its kind's own: the recording (rerun-sdk)
+WORKER_MODULES = ("inkmotion.recording.recorder", "rerun")
+
+
+def warm_up(**_: Any) -> None:
+    """Celery's ``celeryd_after_setup`` (logging set up, the pool not yet started): import
+    :data:`WORKER_MODULES` and what each job kind's run imports
+    (:func:`inkmotion.jobs.kind.warm_up_job_kinds`), so the first job runs as fast as the
+    later ones; a prefork pool's processes, forked after, find it all imported."""
+    import importlib
+
+    from inkmotion.jobs.kind import warm_up_job_kinds
+
+    started = time.perf_counter()
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
+    warmed, failed = warm_up_job_kinds()
+    for sentence in failed:
+        log.warning("worker: %s", sentence)
+    log.info("worker: warmed up the job kinds %s in %.1f s", ", ".join(warmed) or "(none)",
+             time.perf_counter() - started)
+
+
+celeryd_after_setup.connect(warm_up)  # before the pool: its processes inherit it
 worker_ready.connect(start_reaper)  # every worker process re-queues expired leases
 worker_shutting_down.connect(on_worker_shutting_down)  # SIGTERM: hand the job back
 worker_process_init.connect(install_child_handler)  # ... also from a prefork child

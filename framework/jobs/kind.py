@@ -101,6 +101,28 @@ def job_kind(name: str) -> Any:
     return kinds[name]
 
 
+def warm_up_job_kinds(kinds: dict[str, Any] | None = None) -> tuple[list[str], list[str]]:
+    """Call each job kind's optional ``warm_up`` (what its ``run`` imports), ``kinds`` by
+    name (default: every registered kind): the kinds warmed up, and one sentence per kind
+    whose warm-up raised (its first job then pays its imports, and shows the error again
+    if it is real)."""
+    from inkmotion.plugin_host import host
+
+    warmed, failed = [], []
+    for name, kind in sorted((kinds or host().plugins("job-kind")).items()):
+        warm_up = getattr(kind, "warm_up", None)
+        if warm_up is None:
+            continue
+        try:
+            warm_up()
+        except Exception as exc:  # a broken plugin must not stop a worker from starting
+            failed.append(f"warming up the job kind {name!r} failed ({exc}); its first job "
+                          "imports what it needs")
+        else:
+            warmed.append(name)
+    return warmed, failed
+
+
 def resolve(spec: JobSpec, source: str = "job spec", check_inputs: bool = True) -> ResolvedJob:
     """Check ``spec`` against its kind: inputs present (and files existing), parameters
     known and in range, plugins registered, their options valid. Raises SpecError or

@@ -9,9 +9,9 @@ middle of a job; a member added here is checked from then on.
 
 Optional members are declared apart, in one ``…Optional`` protocol per kind
 (:data:`OPTIONAL`: a renderer's ``session``, a robot backend's ``replay``, a job kind's
-``run_together`` and ``examples``, any plugin's ``Options``), so the check never requires
-them while type checkers and readers still see their signatures; the code that uses one
-looks it up with ``getattr(obj, name, None)``.
+``run_together``, ``warm_up`` and ``examples``, any plugin's ``Options``), so the check
+never requires them while type checkers and readers still see their signatures; the code
+that uses one looks it up with ``getattr(obj, name, None)``.
 
 Importing this module imports neither torch nor the plugin manager (the heavy types are
 hints only), so the engines may use it.
@@ -106,6 +106,12 @@ class JobKindOptional(PluginOptional, Protocol):
         """Run several jobs of this kind (same parameters, other inputs and seeds) as one
         batched optimisation: each job's report, or the exception it failed with, in
         order (``inkmotion.jobs.shell.run_jobs_together``)."""
+
+    def warm_up(self) -> None:
+        """Import what :meth:`run` imports, so that a worker's first job of this kind runs
+        as its later ones do: each worker calls it once, before it takes jobs (a prefork
+        worker before it forks its pool, so imports only: no tensor, no thread, no
+        device). A kind without it pays its imports in its first job."""
 
     def check_inputs(self, job: ResolvedJob) -> None:
         """Read the job's inputs as :meth:`run` will and raise
