@@ -426,3 +426,6 @@ def test_a_kind_whose_warm_up_fails_is_named_and_the_others_still_warm_up() -> N
     assert warmed == ["fit"]  # "plain" has no warm_up: nothing to do, nothing said
     assert failed == ["warming up the job kind 'broken' failed (No module named "
                       "'missing_dependency'); its first job imports what it needs"]
+    # a worker warms up only the kinds of the queues it consumes
+    assert warm_up_job_kinds({"fit": fit}, queues={"plot"}) == ([], [])
+    assert warm_up_job_kinds({"fit": fit}, queues={fit.queue}) == (["fit"], [])

@@ -56,11 +56,12 @@ MAX_RETRIES = 6
 WORKER_MODULES = ("inkmotion.recording.recorder", "rerun")
 
 
-def warm_up(**_: Any) -> None:
-    """Celery's ``celeryd_after_setup`` (logging set up, the pool not yet started): import
-    :data:`WORKER_MODULES` and what each job kind's run imports
-    (:func:`inkmotion.jobs.kind.warm_up_job_kinds`), so the first job runs as fast as the
-    later ones; a prefork pool's processes, forked after, find it all imported."""
+def warm_up(instance: Any = None, **_: Any) -> None:
+    """Celery's ``celeryd_after_setup`` (logging set up, ``-Q`` applied, the pool not yet
+    started): import :data:`WORKER_MODULES` and what the run of each job kind on the
+    queues this worker consumes imports (:func:`inkmotion.jobs.kind.warm_up_job_kinds`),
+    so the first job runs as fast as the later ones; a prefork pool's processes, forked
+    after, find it all imported."""
     import importlib
 
     from inkmotion.jobs.kind import warm_up_job_kinds
@@ -68,7 +69,11 @@ def warm_up(**_: Any) -> None:
     started = time.perf_counter()
     for name in WORKER_MODULES:
         importlib.import_module(name)
-    warmed, failed = warm_up_job_kinds()
+    try:  # the queues after -Q (every queue the app declares without it)
+        queues: set[str] | None = set(instance.app.amqp.queues.consume_from)
+    except AttributeError:
+        queues = None
+    warmed, failed = warm_up_job_kinds(queues=queues)
     for sentence in failed:
         log.warning("worker: %s", sentence)
     log.info("worker: warmed up the job kinds %s in %.1f s", ", ".join(warmed) or "(none)",

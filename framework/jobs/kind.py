@@ -17,6 +17,7 @@ Nothing here imports torch: ``inkmotion run --help`` lists the kinds at once.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -101,17 +102,21 @@ def job_kind(name: str) -> Any:
     return kinds[name]
 
 
-def warm_up_job_kinds(kinds: dict[str, Any] | None = None) -> tuple[list[str], list[str]]:
-    """Call each job kind's optional ``warm_up`` (what its ``run`` imports), ``kinds`` by
-    name (default: every registered kind): the kinds warmed up, and one sentence per kind
-    whose warm-up raised (its first job then pays its imports, and shows the error again
-    if it is real)."""
+def warm_up_job_kinds(kinds: dict[str, Any] | None = None,
+                      queues: Collection[str] | None = None) -> tuple[list[str], list[str]]:
+    """Call the optional ``warm_up`` (what its ``run`` imports) of each job kind, ``kinds``
+    by name (default: every registered kind), whose queue is among ``queues`` (default:
+    any; a worker names those it consumes, so one for plots does not import torch): the
+    kinds warmed up, and one sentence per kind whose warm-up raised (its first job then
+    pays its imports, and shows the error again if it is real)."""
     from inkmotion.plugin_host import host
 
     warmed, failed = [], []
-    for name, kind in sorted((kinds or host().plugins("job-kind")).items()):
+    kinds = host().plugins("job-kind") if kinds is None else kinds
+    for name, kind in sorted(kinds.items()):
         warm_up = getattr(kind, "warm_up", None)
-        if warm_up is None:
+        if warm_up is None or (queues is not None and getattr(kind, "queue", None)
+                               not in queues):
             continue
         try:
             warm_up()
