@@ -385,6 +385,7 @@ def test_bench_on_a_missing_gpu_is_one_sentence() -> None:
 
 
 WARMED_UP_FIT = """
+import json
 import sys
 from pathlib import Path
 
@@ -399,7 +400,7 @@ run_job(JobSpec(kind="fit", inputs={"drawing": "sample:tempt-1"},
                 params={"steps": 30, "size": 64}, threads=1), Path(sys.argv[1]))
 late = sorted(m for m in set(sys.modules) - before
               if m.split(".")[0] in ("inkmotion", "torch", "scipy", "cv2", "numpy", "skimage"))
-print(warmed, failed, late)
+print(json.dumps({"warmed": warmed, "failed": failed, "late": late}))
 """
 
 
@@ -410,8 +411,8 @@ def test_a_fit_after_the_kinds_warm_up_imports_nothing_more(tmp_path: Path) -> N
     res = subprocess.run([sys.executable, "-c", WARMED_UP_FIT, str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
-    warmed, failed, late = res.stdout.strip().splitlines()[-1].split("] [")
-    assert "'fit'" in warmed and failed == "" and late == "]", res.stdout
+    said = json.loads(res.stdout.strip().splitlines()[-1])
+    assert "fit" in said["warmed"] and said["failed"] == [] and said["late"] == [], said
 
 
 def test_a_kind_whose_warm_up_fails_is_named_and_the_others_still_warm_up() -> None:

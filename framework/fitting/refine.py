@@ -52,6 +52,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from inkmotion.geometry.chamfer import densify
+from inkmotion.geometry.polyline import arc_length
 from inkmotion.sigma_lognormal.batch import PlanBatch
 from inkmotion.sigma_lognormal.params import DELTA_RANGE, DELTA_T_RANGE, delta_range
 from inkmotion.sigma_lognormal.plan import MotorPlan
@@ -92,8 +93,7 @@ class FittedSamples:
             s = sample(plan, per_move)
             xy = s.positions[:, :2]
             dense = densify(xy, spacing)
-            arc = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
-            dense_arc = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))))
+            arc, dense_arc = arc_length(xy), arc_length(dense)
             positions.append(dense)
             paths.append(np.full(len(dense), i))
             times.append(np.interp(dense_arc, arc, s.t))
@@ -240,7 +240,7 @@ def input_turn(strokes: list[np.ndarray], q: np.ndarray, arm: float) -> float:
         xy = np.asarray(stroke, dtype=np.float64)[:, :2]
         if len(xy) < 3:
             continue
-        arc = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+        arc = arc_length(xy)
         k = int(np.argmin(np.hypot(*(xy - q[:2]).T)))
         d = float(np.hypot(*(xy[k] - q[:2])))
         if d >= best:

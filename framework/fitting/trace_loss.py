@@ -67,6 +67,7 @@ import numpy as np
 import torch
 
 from inkmotion.geometry.chamfer import densify
+from inkmotion.geometry.polyline import arc_length
 from inkmotion.portable_math import planar_norm
 from inkmotion.scalar_tensors import scalar_tensors
 from inkmotion.sigma_lognormal.batch import GridLayout
@@ -118,16 +119,11 @@ def simplify(stroke: np.ndarray, tolerance: float = 0.25) -> np.ndarray:
     return p[keep]
 
 
-def _arc(xy: np.ndarray) -> np.ndarray:
-    """Arc length (n,) px at each vertex of a polyline (n, 2), 0 at the first."""
-    return np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
-
-
 def _resample(stroke: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """Points (k, 2) every ``spacing`` px of arc along ``stroke`` (n, 2), its ends
     included (a recorded trace's own vertices are as dense as its sampling rate: they
     would weigh slow parts more), and their arc lengths (k,)."""
-    arc = _arc(stroke)
+    arc = arc_length(stroke)
     n = max(2, math.ceil(float(arc[-1]) / spacing) + 1)
     at = np.linspace(0.0, float(arc[-1]), n)
     return np.column_stack([np.interp(at, arc, stroke[:, k]) for k in range(2)]), at
@@ -187,7 +183,7 @@ class TraceReference:
             sst.append(np.full(len(v) - 1, i))
             length = max(float(arc[-1]), 1e-9)
             parc.append(arc / length)
-            varc = _arc(v)
+            varc = arc_length(v)
             sarc.append(0.5 * (varc[:-1] + varc[1:]) / max(float(varc[-1]), 1e-9))
             lengths.append([length])
 

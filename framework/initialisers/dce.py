@@ -70,6 +70,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from inkmotion.geometry.polyline import arc_length
+
 if TYPE_CHECKING:
     from inkmotion.sigma_lognormal.plan import MotorPlan
 
@@ -239,11 +241,11 @@ def fitted_turn(piece: np.ndarray, max_bend: float = MAX_BEND, spacing: float = 
     piece = np.asarray(piece, dtype=np.float64)[:, :2]
     chord = piece[-1] - piece[0]
     c = float(np.hypot(*chord))
-    arc_length = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(piece, axis=0).T))))
-    n = max(math.ceil(arc_length[-1] / spacing) + 1, 3)
-    at = np.linspace(0.0, arc_length[-1], n)
-    rel = np.column_stack((np.interp(at, arc_length, piece[:, 0]),
-                           np.interp(at, arc_length, piece[:, 1]))) - piece[0]
+    along = arc_length(piece)
+    n = max(math.ceil(along[-1] / spacing) + 1, 3)
+    at = np.linspace(0.0, along[-1], n)
+    rel = np.column_stack((np.interp(at, along, piece[:, 0]),
+                           np.interp(at, along, piece[:, 1]))) - piece[0]
     frame = np.column_stack((rel @ chord, chord[0] * rel[:, 1] - chord[1] * rel[:, 0])) / c
 
     def cost(turns: np.ndarray) -> np.ndarray:  # (K,)

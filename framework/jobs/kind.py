@@ -115,8 +115,7 @@ def warm_up_job_kinds(kinds: dict[str, Any] | None = None,
     kinds = host().plugins("job-kind") if kinds is None else kinds
     for name, kind in sorted(kinds.items()):
         warm_up = getattr(kind, "warm_up", None)
-        if warm_up is None or (queues is not None and getattr(kind, "queue", None)
-                               not in queues):
+        if warm_up is None or (queues is not None and kind.queue not in queues):
             continue
         try:
             warm_up()
